@@ -1,0 +1,132 @@
+"""Pendulum: a point mass on a rigid massless rod of length L, released from rest at theta0.
+
+Exact solution (ENGINE_NOTES.md; e.g. Lawden, Elliptic Functions and Applications, ch. 5): with
+m = sin^2(theta0/2) and w0 = sqrt(g/L),
+  theta(t)  = 2 arcsin( sqrt(m) sn(K(m) - w0 t | m) ),
+  theta'(t) = -2 sqrt(m) w0 cn(K(m) - w0 t | m),
+period 4 K(m) / w0. scipy's `ellipj`/`ellipk` take the parameter m = k^2; the argument is reduced
+modulo the period 4K before evaluation so that long runs keep full accuracy.
+Observables `theta` (rad, compared) and `theta_dot` (rad/s); `constraint_drift` is the largest
+rod-length error |r| - L (m) where the engine uses maximal coordinates. The pivot is the origin,
+the hinge axis y, gravity -z: the motion stays in the x-z plane.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import ellipe, ellipj, ellipk
+
+from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol, order_tolerance
+from refsim.scene import Body, Joint, Scene
+
+
+def exact_pendulum(theta0, w0, t):
+    """(theta, theta') of the undamped pendulum released from rest at theta0."""
+    m = np.sin(0.5 * theta0) ** 2
+    quarter = ellipk(m)
+    u = np.mod(quarter - w0 * np.asarray(t, float), 4.0 * quarter)
+    sn, cn, _, _ = ellipj(u, m)
+    k = np.sqrt(m)
+    return 2.0 * np.arcsin(k * sn), -2.0 * k * w0 * cn
+
+
+def period(theta0, w0):
+    return 4.0 * ellipk(np.sin(0.5 * theta0) ** 2) / w0
+
+
+class Pendulum(Case):
+    name = "pendulum"
+    description = "point mass on a rigid rod released from rest at theta0; Jacobi-elliptic exact"
+    tags = ("rigid", "constraint", "joints", "exact")
+    observable, units = "theta", "rad"
+    params = {
+        "theta0": Param(1.0, 0.0, np.pi, "release angle (rad)", low_inclusive=False),
+        "length": Param(1.0, 0.0, 1e3, "rod length L (m)", low_inclusive=False),
+        "mass": Param(1.0, 0.0, 1e6, "kg", low_inclusive=False),
+        "g": Param(9.81, 0.0, 1e3, "m/s^2", low_inclusive=False),
+        "duration": Param(10.0, 0.0, 1e4, "s", low_inclusive=False),
+    }
+    variants = {"default": {}, "large_amplitude": {"theta0": 3.0}}
+
+    @staticmethod
+    def omega(p):
+        return np.sqrt(p["g"] / p["length"])
+
+    def scene(self, p):
+        L, th = p["length"], p["theta0"]
+        bob = Body(mass=p["mass"], position=(L * np.sin(th), 0.0, -L * np.cos(th)), name="bob")
+        rod = Joint(body=0, anchor=(0.0, 0.0, 0.0), length=L, axis=(0.0, 1.0, 0.0))
+        return Scene(bodies=(bob,), joints=(rod,), gravity=(0.0, 0.0, -p["g"]), planar=True)
+
+    def t_end(self, p):
+        return p["duration"]
+
+    def dts(self, p):
+        return [4e-3, 2e-3, 1e-3, 5e-4]
+
+    def reference_dt(self, p):
+        return 1e-3
+
+    def observables(self, p, obs):
+        x, v = obs["x"][:, 0, :], obs["v"][:, 0, :]
+        r2 = x[:, 0] ** 2 + x[:, 2] ** 2
+        out = {"theta": np.arctan2(x[:, 0], -x[:, 2]),
+               "theta_dot": (x[:, 0] * v[:, 2] - x[:, 2] * v[:, 0]) / r2}
+        if "constraint" in obs:
+            out["constraint"] = obs["constraint"][:, 0]
+        return out
+
+    def reference(self, p, t):
+        theta, theta_dot = exact_pendulum(p["theta0"], self.omega(p), t)
+        return {"theta": theta, "theta_dot": theta_dot}
+
+    def energy(self, p, obs):
+        x, v = obs["x"][:, 0, :], obs["v"][:, 0, :]
+        return p["mass"] * (0.5 * np.sum(v * v, axis=-1) + p["g"] * x[:, 2])
+
+    def energy_scale(self, p):
+        return p["mass"] * p["g"] * p["length"]
+
+    def motion_scale(self, p):
+        return p["theta0"]
+
+    def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        theta0, w_t = p["theta0"], self.omega(p) * p["duration"]
+        extra, extra_reason = self._formulation_error(p, engine_variant, settings)
+        rtol = adaptive_rtol(integrator)
+        if rtol is not None:
+            return 10 * rtol * theta0 * w_t + extra, ADAPTIVE_REASON + extra_reason
+        y = self.omega(p) * dt
+        symplectic = (settings or {}).get("integrator", {}).get("symplectic", False)
+        growth = 1.0 if symplectic else 1.0 + period_sensitivity(theta0) * w_t
+        reason = (f"order {order}: theta0 * w0 t * (w0 dt)^{order}, the global error of an "
+                  "order-p method after w0 t radians (error constant <= 1)")
+        if not symplectic:
+            reason += (f", times 1 + kappa w0 t = {growth:.3g}: a non-symplectic method's energy "
+                       f"error (~ w0 t (w0 dt)^p) changes the period by kappa = dlnT/dlnE = "
+                       f"{period_sensitivity(theta0):.3g} of it, and that phase error grows with t")
+        return order_tolerance(theta0, w_t, y, order) * growth + extra, reason + extra_reason
+
+    @staticmethod
+    def _formulation_error(p, engine_variant, settings):
+        ratio = (settings or {}).get("penalty_ratio")
+        if ratio:
+            stretch = 1.0 + 2.0 * (1.0 - np.cos(p["theta0"]))
+            w_t = np.sqrt(p["g"] / p["length"]) * p["duration"]
+            return p["theta0"] * w_t * stretch / ratio ** 2, (
+                f"; plus the penalty rod's stretch (w0/w_rod)^2 (1 + 2(1 - cos theta0)) L = "
+                f"{stretch / ratio ** 2:.2g} L, which slows the swing by half that fraction, "
+                "accumulated over w0 t (bound taken without the half)")
+        if engine_variant == "kkt":
+            return 0.0, "; Baumgarte (w dt = 0.2) holds the rod length to the integrator's error"
+        return 0.0, ""
+
+
+def period_sensitivity(theta0):
+    """kappa = dlnT/dlnE at release angle theta0: with m = sin^2(theta0/2) = E/(2 m g L),
+    T = 4 K(m)/w0 and dK/dm = (E(m) - (1 - m) K(m)) / (2 m (1 - m))."""
+    m = np.sin(0.5 * theta0) ** 2
+    k = ellipk(m)
+    return (ellipe(m) - (1.0 - m) * k) / (2.0 * (1.0 - m) * k)
+
+
+CASE = Pendulum()

@@ -1,0 +1,151 @@
+"""The Case contract: one canonical scenario with its scene, reference, metrics and tolerances.
+
+Contract for an implementer (one module in `cases/`, one `Case` subclass instance named CASE):
+1. `name`, `description`, `tags`, `observable` (the compared quantity) and `units`;
+2. `params`: {name: Param(default, low, high, doc)} validated by `validate`; `variants`:
+   {variant name: parameter overrides}, the first being the default;
+3. `scene(p)` builds the engine-neutral Scene; `t_end(p)`, `sample_dt(p)`, `dts(p)` (the dt
+   sweep, halving) and `reference_dt(p)`;
+4. `observables(p, obs)` maps stacked engine observations {"t", "x", "v", ...} to named arrays;
+   `reference(p, t)` returns the same names from the exact/converged/experimental reference;
+5. `energy(p, obs)` (None where energy means nothing) and `energy_scale(p)`;
+6. `tolerance(p, integrator, order, dt, engine_variant, settings)` returns (tol, reason): the
+   bound the error must meet, derived from the method's order and the engine's effective
+   settings (e.g. a penalty stiffness), with its reason.
+"""
+from __future__ import annotations
+
+import hashlib
+import inspect
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Param:
+    default: float
+    low: float
+    high: float
+    doc: str = ""
+    low_inclusive: bool = True
+
+    def check(self, name: str, value) -> float:
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be a number in {self.range_text()}, got {value!r}") \
+                from None
+        low_ok = value >= self.low if self.low_inclusive else value > self.low
+        if not math.isfinite(value) or not low_ok or value > self.high:
+            raise ValueError(f"{name} must be in {self.range_text()}, got {value}")
+        return value
+
+    def range_text(self) -> str:
+        return f"{'[' if self.low_inclusive else '('}{self.low:g}, {self.high:g}]"
+
+
+class Case:
+    name = "case"
+    description = ""
+    tags: tuple = ()
+    observable = ""
+    units = ""
+    params: dict = {}
+    variants: dict = {"default": {}}
+    quick_variants: tuple = ("default",)
+    divergence_factor = 100.0  # |E - E0| beyond this many energy scales: diverged
+    samples = 400  # about this many observations per run (every step when fewer steps)
+
+    # -- parameters ---------------------------------------------------------------------------
+    def validate(self, overrides: dict | None = None) -> dict:
+        overrides = dict(overrides or {})
+        unknown = sorted(set(overrides) - set(self.params))
+        if unknown:
+            raise ValueError(f"{self.name} parameter must be one of {sorted(self.params)}, "
+                             f"got {unknown[0]!r}")
+        p = {k: spec.default for k, spec in self.params.items()}
+        for key, value in overrides.items():
+            p[key] = self.params[key].check(f"{self.name}.{key}", value)
+        return p
+
+    def variant_params(self, variant: str, overrides: dict | None = None) -> dict:
+        if variant not in self.variants:
+            raise ValueError(f"{self.name} variant must be one of {list(self.variants)}, "
+                             f"got {variant!r}")
+        return self.validate({**self.variants[variant], **(overrides or {})})
+
+    # -- to implement -------------------------------------------------------------------------
+    def scene(self, p):
+        raise NotImplementedError
+
+    def t_end(self, p) -> float:
+        raise NotImplementedError
+
+    def dts(self, p) -> list[float]:
+        raise NotImplementedError
+
+    def reference_dt(self, p) -> float:
+        raise NotImplementedError
+
+    def observables(self, p, obs) -> dict:
+        raise NotImplementedError
+
+    def reference(self, p, t) -> dict:
+        raise NotImplementedError
+
+    def energy(self, p, obs):
+        return None
+
+    def energy_scale(self, p) -> float:
+        return 1.0
+
+    def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        raise NotImplementedError
+
+    def motion_scale(self, p) -> float:
+        """Size of the motion in the observable's units (amplitude, release angle, ...)."""
+        return 1.0
+
+    # -- shared -------------------------------------------------------------------------------
+    def error_floor(self, p) -> float:
+        """Errors below this are round-off: left out of convergence-order fits."""
+        return 1e-11 * self.motion_scale(p)
+
+    def error_ceiling(self, p) -> float:
+        """Errors above this are pre-asymptotic (or unstable): left out of order fits."""
+        return 0.1 * self.motion_scale(p)
+
+    def sample_dt(self, p) -> float:
+        return self.t_end(p) / self.samples
+
+    def source_hash(self) -> str:
+        source = inspect.getsource(inspect.getmodule(type(self)))
+        return hashlib.sha256(source.encode()).hexdigest()[:16]
+
+    def error(self, p, observed: dict, reference: dict) -> np.ndarray:
+        """Error of the compared observable at each sample (Euclidean norm over components)."""
+        diff = np.asarray(observed[self.observable]) - np.asarray(reference[self.observable])
+        return np.abs(diff) if diff.ndim == 1 else np.linalg.norm(
+            diff.reshape(len(diff), -1), axis=1)
+
+
+def adaptive_rtol(integrator: str) -> float | None:
+    """rtol of an adaptive integrator spec ('dopri5_adaptive:1e-9'), None for fixed steps."""
+    name, _, arg = integrator.partition(":")
+    if not name.endswith("_adaptive"):
+        return None
+    return float(arg) if arg else 1e-9
+
+
+ADAPTIVE_REASON = ("adaptive: local error held to rtol per step; the global error after omega t "
+                   "radians grows at most like omega t * rtol (factor 10 for the controller's "
+                   "safety margin)")
+
+
+def order_tolerance(scale: float, omega_t: float, y: float, order: int, extra: float = 0.0):
+    """scale * omega t * y^p: the global error of an order-p one-step method on an oscillation
+    after omega t radians, with y = omega dt and the leading error constant taken as 1 (the
+    largest among the steppers here is 1/2, explicit and implicit Euler's amplitude error)."""
+    return scale * max(omega_t, 1.0) * y ** order + extra

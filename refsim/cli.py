@@ -1,0 +1,178 @@
+"""`refsim list | run | bench`: the command line.
+
+Bad input (an unknown name, dt <= 0, a non-finite or out-of-range parameter) prints one line
+naming the parameter and the valid values, and exits with code 2.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+
+def _pin_threads(argv) -> int:
+    """BLAS/OpenMP threads must be set before numpy loads: read --threads early (default 1)."""
+    threads = "1"
+    for k, arg in enumerate(argv):
+        if arg == "--threads" and k + 1 < len(argv):
+            threads = argv[k + 1]
+        elif arg.startswith("--threads="):
+            threads = arg.split("=", 1)[1]
+    if not threads.isdigit() or int(threads) < 1:
+        threads = "1"
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, threads)
+    return int(threads)
+
+
+THREADS = _pin_threads(sys.argv)
+
+import argparse  # noqa: E402
+import shlex  # noqa: E402
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        _fail(message)
+
+
+def _fail(message: str, code: int = 2):
+    print(f"refsim: error: {message}", file=sys.stderr)
+    raise SystemExit(code)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="refsim", description="Reference validation and benchmarking of "
+                     "physics engines against exact, converged or experimental references.")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+    sub.add_parser("list", help="cases, engines (availability, version) and integrators")
+    run = sub.add_parser("run", help="run the case x engine x integrator x dt matrix")
+    run.add_argument("--case", action="append", help="case name (repeatable)")
+    run.add_argument("--variant", action="append", help="case variant name (repeatable)")
+    run.add_argument("--engine", action="append", help="engine name (repeatable)")
+    run.add_argument("--integrator", action="append", help="integrator, e.g. rk4, rk2:0.5")
+    run.add_argument("--dt", action="append", help="time step in s (repeatable)")
+    run.add_argument("--param", action="append", default=[],
+                     help="case parameter override NAME=VALUE or CASE.NAME=VALUE")
+    run.add_argument("--quick", action="store_true", help="reference dt and default variants")
+    run.add_argument("--out", default=None, help="runs directory (default reports/runs)")
+    run.add_argument("--repeats", default="3", help="timing repeats (>= 1)")
+    run.add_argument("--resume", default=None, help="finish the interrupted run RUN_ID")
+    run.add_argument("--threads", default="1", help="BLAS/OpenMP threads (>= 1)")
+    bench = sub.add_parser("bench", help="in-house engine speed figures (one core)")
+    bench.add_argument("--quick", action="store_true", help="smaller batch, fewer repeats")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "list":
+            return cmd_list()
+        if args.command == "run":
+            return cmd_run(args, argv)
+        if args.command == "bench":
+            from refsim.bench import main as bench_main
+            return bench_main(quick=args.quick)
+    except ValueError as exc:
+        _fail(str(exc).splitlines()[0])
+    except KeyboardInterrupt:
+        print("\nrefsim: interrupted; finished rows are saved (resume with --resume RUN_ID)",
+              file=sys.stderr)
+        return 130
+    build_parser().print_help()
+    return 2
+
+
+def cmd_list() -> int:
+    from adapters import engine_names, get_engine
+    from cases import case_names, get_case
+    from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
+
+    print("cases:")
+    for name in case_names():
+        case = get_case(name)
+        print(f"  {name:14s} {case.description}")
+        print(f"  {'':14s} variants: {', '.join(case.variants)}")
+    print("engines:")
+    for name in engine_names():
+        eng = get_engine(name)
+        state = f"available {eng.version()}" if eng.available() else "unavailable"
+        print(f"  {name:14s} {state:22s} integrators: {', '.join(eng.integrators)}")
+    print("integrators:")
+    for name in INTEGRATORS:
+        d = get_integrator(name).describe()
+        kind = "explicit" if d["explicit"] else "implicit"
+        extra = f"  [{PARAMETRISED[name]}]" if name in PARAMETRISED else ""
+        print(f"  {name:20s} order {d['order']}  {kind:8s} {d['family']}"
+              f"{' (symplectic)' if d['symplectic'] else ''}{extra}")
+    return 0
+
+
+def _positive_int(name, value):
+    if not str(value).isdigit() or int(value) < 1:
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    return int(value)
+
+
+def _params(specs, cases):
+    from cases import get_case
+    out = {}
+    for spec in specs:
+        key, sep, value = spec.partition("=")
+        if not sep:
+            raise ValueError(f"--param must be NAME=VALUE, got {spec!r}")
+        case_name, _, name = key.rpartition(".")
+        targets = [case_name] if case_name else cases
+        hits = [c for c in targets if name in get_case(c).params]
+        if not hits:
+            raise ValueError(f"--param {name!r} must be a parameter of {targets}")
+        for c in hits:
+            get_case(c).validate({name: value})
+            out.setdefault(c, {})[name] = value
+    return out
+
+
+def cmd_run(args, argv) -> int:
+    from pathlib import Path
+
+    from cases import case_names
+    from refsim import runner, store
+    from refsim.summary import print_summary, progress_printer
+
+    repeats = _positive_int("--repeats", args.repeats)
+    root = Path(args.out) if args.out else store.DEFAULT_ROOT
+    if args.resume:
+        st = store.RunStore.open(root / args.resume)
+        spec = st.manifest["matrix"]
+    else:
+        spec = {"cases": args.case or case_names(), "engines": args.engine,
+                "integrators": args.integrator, "dts": args.dt, "quick": args.quick,
+                "variants": args.variant}
+        spec["params"] = _params(args.param, spec["cases"])
+    jobs = runner.expand(**spec)
+    if not args.resume:
+        st = store.RunStore.create(root, _manifest(spec, argv, jobs))
+    table = runner.run_matrix(jobs, st, repeats=repeats, progress=progress_printer())
+    st.update_manifest(status="complete")
+    print_summary(table)
+    print(st.dir)
+    return 0
+
+
+def _manifest(spec, argv, jobs) -> dict:
+    from adapters import get_engine
+    from cases import get_case
+    from refsim import store
+
+    engines = sorted({j.engine for j in jobs})
+    versions = {e: (get_engine(e).version() if get_engine(e).available() else "unavailable")
+                for e in engines}
+    hashes = {c: get_case(c).source_hash() for c in spec["cases"]}
+    command = "refsim " + shlex.join(sys.argv[1:] if argv is None else argv)
+    return {"run_id": store.new_run_id(), "command": command, "matrix": spec,
+            "jobs": len(jobs), "status": "running",
+            **store.environment(versions, hashes, THREADS)}
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,105 @@
+"""Forces on point masses, per unit mass (accelerations), with their Jacobians.
+
+Positions and velocities have shape (..., nbody, 3); Jacobians are (..., 3 nbody, 3 nbody).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def gravity_accel(gravity, shape) -> np.ndarray:
+    return np.broadcast_to(np.asarray(gravity, float), shape)
+
+
+def drag_accel(v, drag, masses) -> np.ndarray:
+    """Linear drag f = -b v, as an acceleration -b/m v."""
+    return -(drag / masses)[:, None] * v
+
+
+def drag_jacobian_v(drag, masses) -> np.ndarray:
+    return np.diag(np.repeat(-drag / masses, 3))
+
+
+@dataclass(frozen=True)
+class SpringSet:
+    """Springs as arrays: body index, other body (-1 for a fixed anchor), anchor, k, L0, c."""
+
+    body: np.ndarray
+    other: np.ndarray
+    anchor: np.ndarray
+    stiffness: np.ndarray
+    rest: np.ndarray
+    damping: np.ndarray
+
+    @classmethod
+    def from_scene(cls, springs):
+        return cls(
+            body=np.array([s.body for s in springs], int),
+            other=np.array([-1 if s.other is None else s.other for s in springs], int),
+            anchor=np.array([s.anchor for s in springs], float).reshape(-1, 3),
+            stiffness=np.array([s.stiffness for s in springs], float),
+            rest=np.array([s.rest_length for s in springs], float),
+            damping=np.array([s.damping for s in springs], float),
+        )
+
+    @property
+    def linear(self) -> bool:
+        """Zero rest length and no damping: f = -k d is linear in x."""
+        return bool(np.all(self.rest == 0) and np.all(self.damping == 0))
+
+    def _ends(self, x, v):
+        has_other = self.other >= 0
+        other_x = np.where(has_other[:, None], x[..., np.maximum(self.other, 0), :], self.anchor)
+        other_v = np.where(has_other[:, None], v[..., np.maximum(self.other, 0), :], 0.0)
+        return x[..., self.body, :] - other_x, v[..., self.body, :] - other_v, has_other
+
+    def _axis(self, d):
+        length = np.linalg.norm(d, axis=-1, keepdims=True)
+        unit = np.divide(d, length, out=np.zeros_like(d), where=length > 0)
+        return length, unit
+
+    def forces(self, x, v) -> np.ndarray:
+        """Force on every body: -k (|d| - L0) u - c (dv . u) u, equal and opposite on `other`."""
+        d, dv, has_other = self._ends(x, v)
+        length, unit = self._axis(d)
+        f = -(self.stiffness[:, None] * (length - self.rest[:, None])) * unit
+        f = f - self.damping[:, None] * np.sum(dv * unit, axis=-1, keepdims=True) * unit
+        out = np.zeros_like(x)
+        _add_batched(out, self.body, f)
+        if has_other.any():
+            _add_batched(out, self.other[has_other], -f[..., has_other, :])
+        return out
+
+    def jacobians(self, x, v):
+        """(df/dx, df/dv), each (..., 3n, 3n). The x-derivative of the damping direction is
+        left out: exact when the motion stays along the spring axis (as in the cases here)."""
+        d, _, has_other = self._ends(x, v)
+        length, unit = self._axis(d)
+        uu = unit[..., :, None] * unit[..., None, :]
+        eye = np.eye(3)
+        ratio = np.divide(self.rest[:, None], length, out=np.zeros_like(length),
+                          where=length > 0)[..., None]
+        kx = -self.stiffness[:, None, None] * ((1 - ratio) * eye + ratio * uu)
+        kv = -self.damping[:, None, None] * uu
+        n = x.shape[-2]
+        jx = np.zeros(x.shape[:-2] + (3 * n, 3 * n))
+        jv = np.zeros_like(jx)
+        for s, (i, j) in enumerate(zip(self.body, self.other)):
+            for jac, block in ((jx, kx[..., s, :, :]), (jv, kv[..., s, :, :])):
+                _add_block(jac, i, i, block)
+                if j >= 0:
+                    _add_block(jac, j, j, block)
+                    _add_block(jac, i, j, -block)
+                    _add_block(jac, j, i, -block)
+        return jx, jv
+
+
+def _add_batched(out, index, values):
+    """out[..., index, :] += values, with repeated indices summed."""
+    np.add.at(np.moveaxis(out, -2, 0), index, np.moveaxis(values, -2, 0))
+
+
+def _add_block(jac, i, j, block):
+    jac[..., 3 * i:3 * i + 3, 3 * j:3 * j + 3] += block

@@ -1,0 +1,80 @@
+"""Cartesian particle systems assembled from force terms, in the form the steppers take:
+flat state (..., 3 nbody), accel(t, x, v), jacobians(t, x, v), `linear`, `velocity_dependent`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .forces import SpringSet, drag_accel, drag_jacobian_v, gravity_accel
+from .joints import RodSet
+
+
+class ParticleSystem:
+    def __init__(self, masses, gravity, drag=0.0, springs: SpringSet | None = None,
+                 rods: RodSet | None = None):
+        self.masses = np.asarray(masses, float)
+        self.nbody = len(self.masses)
+        self.gravity = np.asarray(gravity, float)
+        self.drag, self.springs, self.rods = float(drag), springs, rods
+        self.has_gravity = bool(np.any(self.gravity))
+        self.velocity_dependent = bool(
+            self.drag > 0 or rods is not None or (springs is not None and springs.damping.any()))
+        self.linear = rods is None and (springs is None or springs.linear)
+
+    def stages(self) -> list[str]:
+        out = ["gravity"] if self.has_gravity else []
+        if self.drag > 0:
+            out.append("drag")
+        if self.springs is not None:
+            out.append("springs")
+        if self.rods is not None:
+            out.append("kkt_rods")
+        return out
+
+    def forces(self, x, v):
+        f = np.zeros_like(x)
+        if self.has_gravity:
+            f = f + self.masses[:, None] * gravity_accel(self.gravity, x.shape)
+        if self.drag > 0:
+            f = f + self.masses[:, None] * drag_accel(v, self.drag, self.masses)
+        if self.springs is not None:
+            f = f + self.springs.forces(x, v)
+        return f
+
+    def accel(self, t, x, v):
+        shape = x.shape[:-1] + (self.nbody, 3)
+        xb, vb = x.reshape(shape), v.reshape(shape)
+        f = self.forces(xb, vb)
+        a = self.rods.project(xb, vb, f, self.masses) if self.rods else f / self.masses[:, None]
+        return a.reshape(x.shape)
+
+    def jacobians(self, t, x, v):
+        if self.rods is not None:
+            return finite_difference_jacobians(self.accel, t, x, v)
+        n = x.shape[-1]
+        inv_m = np.repeat(1.0 / self.masses, 3)[:, None]
+        jx = np.zeros(x.shape[:-1] + (n, n))
+        jv = np.zeros_like(jx)
+        if self.drag > 0:
+            jv = jv + drag_jacobian_v(self.drag, self.masses)
+        if self.springs is not None:
+            shape = x.shape[:-1] + (self.nbody, 3)
+            kx, kv = self.springs.jacobians(x.reshape(shape), v.reshape(shape))
+            jx, jv = jx + inv_m * kx, jv + inv_m * kv
+        return jx, jv
+
+
+def finite_difference_jacobians(accel, t, x, v, rel=1e-6):
+    """Central differences of accel in every state component, evaluated as one batch."""
+    n = x.shape[-1]
+    step = rel * np.maximum(1.0, np.max(np.abs(x)))
+    eye = np.eye(n) * step
+    xs = x[..., None, :] + np.concatenate([eye, -eye])  # (..., 2n, n)
+    vs = np.broadcast_to(v[..., None, :], xs.shape)
+    ax = accel(t, xs, vs)
+    stepv = rel * np.maximum(1.0, np.max(np.abs(v)))
+    vs2 = v[..., None, :] + np.concatenate([np.eye(n), -np.eye(n)]) * stepv
+    av = accel(t, np.broadcast_to(x[..., None, :], vs2.shape), vs2)
+    jx = np.swapaxes((ax[..., :n, :] - ax[..., n:, :]) / (2 * step), -1, -2)
+    jv = np.swapaxes((av[..., :n, :] - av[..., n:, :]) / (2 * stepv), -1, -2)
+    return jx, jv

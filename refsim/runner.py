@@ -1,0 +1,276 @@
+"""Expands the case x engine x integrator x dt matrix and runs it with timing discipline.
+
+Each job is two passes on fresh models: an accuracy pass (step to each sample time, observe,
+check for divergence) and a timing pass (warm-up, then `Sim.step(N)` repeated with nothing
+observed; min and median kept). A failure is a row with a status, never a crash of the sweep.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pandas as pd
+
+from adapters import engine_names, get_engine
+from cases import case_names, get_case
+from refsim.integrators import INTEGRATORS, get_integrator
+from refsim.metrics import convergence_order, energy_drift, error_norms
+
+STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
+
+
+@dataclass(frozen=True)
+class Job:
+    case: str
+    variant: str
+    engine: str
+    engine_variant: str
+    integrator: str
+    dt: float
+    params: tuple = ()  # case parameter overrides, sorted (name, value) pairs
+
+    @property
+    def label(self) -> str:
+        eng = self.engine + (f":{self.engine_variant}" if self.engine_variant else "")
+        return f"{self.case}/{self.variant} {eng} {self.integrator} dt={self.dt:.3g}"
+
+
+# ---------------------------------------------------------------------------------------------
+# Matrix expansion
+# ---------------------------------------------------------------------------------------------
+def check_dt(dt) -> float:
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"--dt must be a finite number > 0, got {dt!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"--dt must be a finite number > 0, got {dt}")
+    return value
+
+
+def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, variants=None,
+           params=None) -> list[Job]:
+    """Every job of the matrix; unknown names raise ValueError naming the valid ones."""
+    cases = list(cases or case_names())
+    for name in cases:
+        get_case(name)
+    engines = [get_engine(e) for e in (engines or engine_names())]
+    dts = [check_dt(d) for d in dts] if dts else None
+    if integrators:
+        offered = {i for e in engines for i in e.integrators}
+        for spec in integrators:
+            if spec.partition(":")[0] in INTEGRATORS:
+                get_integrator(spec)  # validates a parameter such as rk2:alpha
+            if spec.partition(":")[0] not in offered:
+                raise ValueError(f"integrator must be one of {sorted(offered)} for engines "
+                                 f"{[e.name for e in engines]}, got {spec!r}")
+    jobs = []
+    for cname in cases:
+        case = get_case(cname)
+        for variant in _variants(case, variants, quick):
+            overrides = tuple(sorted((params or {}).get(cname, {}).items()))
+            p = case.variant_params(variant, dict(overrides))
+            scene = case.scene(p)
+            sweep = dts or ([case.reference_dt(p)] if quick else case.dts(p))
+            for engine in engines:
+                jobs.extend(Job(**{**asdict(j), "params": overrides}) for j in
+                            _engine_jobs(cname, variant, engine, scene, integrators, sweep))
+    return jobs
+
+
+def _variants(case, variants, quick):
+    if variants:
+        chosen = [v for v in variants if v in case.variants]
+        return chosen or [next(iter(case.variants))]
+    return list(case.quick_variants if quick else case.variants)
+
+
+def _engine_jobs(cname, variant, engine, scene, integrators, sweep):
+    if not engine.available() or engine.supports(scene) is not None:
+        return [Job(cname, variant, engine.name, "", "", float("nan"))]
+    specs = [i for i in (integrators or engine.integrators) if i.partition(":")[0]
+             in engine.integrators]
+    return [Job(cname, variant, engine.name, ev, spec, dt)
+            for ev in engine.variants(scene) for spec in specs for dt in sweep]
+
+
+# ---------------------------------------------------------------------------------------------
+# One job
+# ---------------------------------------------------------------------------------------------
+def _blank_row(job: Job, run_id: str) -> dict:
+    row = {"run_id": run_id, **asdict(job), "params": json.dumps(dict(job.params)),
+           "engine_version": "", "steps": 0,
+           "t_end": float("nan"), "status": "", "reason": "", "nominal_order": float("nan")}
+    for col in ("err_max", "err_final", "err_rms", "energy_drift", "constraint_drift",
+                "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step",
+                "tolerance", "diverged_t"):
+        row[col] = float("nan")
+    row.update(repeats=0, settings="{}", within_tol=False, tol_reason="", samples=0)
+    return row
+
+
+def run_job(job: Job, run_id: str = "", repeats: int = 3, budget_s: float = 2.0) -> dict:
+    row = _blank_row(job, run_id)
+    try:
+        _run_job(job, row, repeats, budget_s)
+    except Exception as exc:  # a failure is a row, never a crash of the sweep
+        row.update(status="failed", reason=f"{type(exc).__name__}: {exc}".splitlines()[0])
+    return row
+
+
+def _run_job(job, row, repeats, budget_s):
+    case, engine = get_case(job.case), get_engine(job.engine)
+    p = case.variant_params(job.variant, dict(job.params))
+    scene = case.scene(p)
+    if not engine.available():
+        row.update(status="unavailable", reason=f"{engine.package} is not installed")
+        return
+    row["engine_version"] = engine.version()
+    reason = engine.supports(scene, job.integrator or None)
+    if reason is not None:
+        row.update(status="unsupported", reason=reason)
+        return
+    steps = int(round(case.t_end(p) / job.dt))
+    stride = max(1, int(round(case.sample_dt(p) / job.dt)))
+    row.update(steps=steps, t_end=steps * job.dt)
+    sim, setup_s = _build(engine, scene, job)
+    row.update(setup_s=setup_s, compile_s=sim.compile_s, settings=json.dumps(sim.settings()),
+               nominal_order=_nominal_order(sim, job))
+    obs, diverged = _accuracy_pass(case, p, sim, steps, stride)
+    sim.close()
+    stacked = {k: np.array([o[k] for o in obs]) for k in obs[0]}
+    if diverged:
+        row.update(status="diverged", reason=diverged[0], diverged_t=diverged[1],
+                   samples=len(obs))
+        return
+    row.update(_accuracy_metrics(case, p, stacked), status="ok", samples=len(obs))
+    tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
+                              job.engine_variant, json.loads(row["settings"]))
+    if tol >= case.motion_scale(p):  # a bound larger than the motion would accept any answer
+        tol, why = case.motion_scale(p), (f"{why}; that bound ({tol:.3g}) exceeds the motion "
+                                          f"itself, so it is capped at the motion scale")
+    row.update(tolerance=tol, tol_reason=why, within_tol=bool(row["err_max"] <= tol))
+    row.update(_timing_pass(engine, scene, job, steps, repeats, budget_s))
+
+
+def _build(engine, scene, job):
+    t0 = time.perf_counter()
+    sim = engine.build(scene, job.dt, job.integrator, job.engine_variant)
+    return sim, time.perf_counter() - t0 - sim.compile_s
+
+
+def _nominal_order(sim, job):
+    described = json.loads(json.dumps(sim.settings())).get("integrator", {})
+    if isinstance(described, dict) and "order" in described:
+        return float(described["order"])
+    try:
+        return float(get_integrator(job.integrator).order)
+    except ValueError:
+        return float("nan")
+
+
+def _accuracy_pass(case, p, sim, steps, stride):
+    """Observe at t = 0 and every `stride` steps; stop at the first sign of divergence."""
+    obs = [sim.observe()]
+    e_scale = case.energy_scale(p)
+    done = 0
+    while done < steps:
+        n = min(stride, steps - done)
+        sim.step(n)
+        done += n
+        o = sim.observe()
+        obs.append(o)
+        why = _divergence(case, p, sim, o, obs[0], e_scale)
+        if why:
+            return obs, (f"{why} at t={o['t']:.6g} s", o["t"])
+    return obs, None
+
+
+def _divergence(case, p, sim, o, first, e_scale):
+    if sim.failure:
+        return sim.failure
+    if not (np.all(np.isfinite(o["x"])) and np.all(np.isfinite(o["v"]))):
+        return "non-finite state"
+    stacked = {k: np.asarray([o[k]]) for k in o}
+    energy = case.energy(p, stacked)
+    if energy is not None:
+        e0 = case.energy(p, {k: np.asarray([first[k]]) for k in first})[0]
+        if abs(energy[0] - e0) > case.divergence_factor * e_scale:
+            return f"energy beyond {case.divergence_factor:g} x the energy scale"
+    return None
+
+
+def _accuracy_metrics(case, p, stacked):
+    observed = case.observables(p, stacked)
+    reference = case.reference(p, stacked["t"])
+    out = error_norms(case.error(p, observed, reference))
+    energy = case.energy(p, stacked)
+    ref_energy = (case.reference_energy(p, stacked["t"]) if hasattr(case, "reference_energy")
+                  else None)
+    if energy is not None:
+        out["energy_drift"] = energy_drift(energy, energy[0] if ref_energy is None
+                                           else ref_energy, case.energy_scale(p))
+    if "constraint" in observed:
+        out["constraint_drift"] = float(np.max(np.abs(observed["constraint"])))
+    return out
+
+
+def _timing_pass(engine, scene, job, steps, repeats, budget_s):
+    """Warm-up on one model, then `repeats` fresh models each stepped N times (within a time
+    budget, at least once). Nothing is observed inside the timed region."""
+    warm, _ = _build(engine, scene, job)
+    warm.step(max(1, min(steps, 50)))
+    warm.close()
+    times, setups, spent = [], [], 0.0
+    while len(times) < max(1, repeats) and (not times or spent < budget_s):
+        sim, setup_s = _build(engine, scene, job)
+        t0 = time.perf_counter()
+        sim.step(steps)
+        times.append(time.perf_counter() - t0)
+        sim.close()
+        setups.append(setup_s)
+        spent += times[-1] + setup_s
+    best = min(times)
+    return {"step_s": best, "step_s_median": float(np.median(times)),
+            "us_per_step": best / steps * 1e6, "repeats": len(times),
+            "setup_s": min(setups)}
+
+
+# ---------------------------------------------------------------------------------------------
+# The matrix
+# ---------------------------------------------------------------------------------------------
+def run_matrix(jobs, store, repeats=3, budget_s=2.0, progress=None) -> pd.DataFrame:
+    run_id = store.dir.name
+    done = store.done_keys()
+    from refsim.store import row_key
+    todo = [j for j in jobs if row_key(asdict(j)) not in done]
+    for k, job in enumerate(todo):
+        if progress:
+            progress(k, len(todo), job)
+        store.add(run_job(job, run_id, repeats, budget_s))
+    if progress:
+        progress(len(todo), len(todo), None)
+    table = with_orders(pd.DataFrame(store.rows))
+    store.write_table(table)
+    return table
+
+
+GROUP = ["case", "variant", "engine", "engine_variant", "integrator"]
+
+
+def with_orders(table: pd.DataFrame) -> pd.DataFrame:
+    """Adds `order`: the measured convergence order of each case x engine x integrator."""
+    table = table.copy()
+    table["order"] = np.nan
+    table["order_points"] = 0
+    for key, group in table[table["status"] == "ok"].groupby(GROUP + ["params"], dropna=False):
+        case = get_case(key[0])
+        p = case.variant_params(key[1], json.loads(key[-1]))
+        floor, ceiling = case.error_floor(p), case.error_ceiling(p)
+        order, used = convergence_order(group["dt"], group["err_max"], floor, ceiling)
+        table.loc[group.index, "order"] = order
+        table.loc[group.index, "order_points"] = used
+    return table

@@ -1,0 +1,166 @@
+"""Engine-neutral scene description: frozen, validated plain data.
+
+Every backend (the in-house engine and each adapter) reads the same `Scene`. SI units, float64;
+3D scenes are z-up, 2D scenes are y-up. Validation happens when an object is built: a bad value
+raises `ValueError` naming the field and its valid range, never later inside an engine.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+Vec = tuple[float, float, float]
+
+
+def _vec(name: str, value) -> Vec:
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape != (3,):
+        raise ValueError(f"{name} must have 3 components, got {arr.size}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {tuple(arr)}")
+    return tuple(float(c) for c in arr)
+
+
+def _positive(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value}")
+    return value
+
+
+def _nonnegative(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    return value
+
+
+def _set(obj, name: str, value) -> None:
+    object.__setattr__(obj, name, value)
+
+
+@dataclass(frozen=True)
+class Body:
+    """A point mass (radius 0) or a sphere. `inertia` is the scalar moment about the centre."""
+
+    mass: float
+    position: Vec
+    velocity: Vec = (0.0, 0.0, 0.0)
+    radius: float = 0.0
+    inertia: float = 0.0
+    angular_velocity: Vec = (0.0, 0.0, 0.0)
+    name: str = "body"
+
+    def __post_init__(self):
+        _set(self, "mass", _positive(f"{self.name}.mass", self.mass))
+        _set(self, "radius", _nonnegative(f"{self.name}.radius", self.radius))
+        _set(self, "inertia", _nonnegative(f"{self.name}.inertia", self.inertia))
+        for attr in ("position", "velocity", "angular_velocity"):
+            _set(self, attr, _vec(f"{self.name}.{attr}", getattr(self, attr)))
+
+
+@dataclass(frozen=True)
+class Spring:
+    """Linear spring from body `body` to a fixed `anchor` (or to body `other` when given)."""
+
+    body: int
+    stiffness: float
+    rest_length: float
+    anchor: Vec = (0.0, 0.0, 0.0)
+    other: int | None = None
+    damping: float = 0.0
+
+    def __post_init__(self):
+        _set(self, "stiffness", _positive("spring.stiffness", self.stiffness))
+        _set(self, "rest_length", _nonnegative("spring.rest_length", self.rest_length))
+        _set(self, "damping", _nonnegative("spring.damping", self.damping))
+        _set(self, "anchor", _vec("spring.anchor", self.anchor))
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A rigid massless rod of `length` from a fixed `anchor` to body `body`.
+
+    kind "hinge": the rod turns about `axis` through the anchor (planar pendulum).
+    """
+
+    body: int
+    anchor: Vec
+    length: float
+    axis: Vec = (0.0, 1.0, 0.0)
+    kind: str = "hinge"
+
+    def __post_init__(self):
+        _set(self, "length", _positive("joint.length", self.length))
+        _set(self, "anchor", _vec("joint.anchor", self.anchor))
+        axis = np.asarray(_vec("joint.axis", self.axis))
+        if np.linalg.norm(axis) == 0:
+            raise ValueError("joint.axis must be a non-zero vector")
+        _set(self, "axis", tuple(float(c) for c in axis / np.linalg.norm(axis)))
+        if self.kind != "hinge":
+            raise ValueError(f"joint.kind must be one of ['hinge'], got {self.kind!r}")
+
+
+@dataclass(frozen=True)
+class Scene:
+    bodies: tuple[Body, ...]
+    gravity: Vec = (0.0, 0.0, 0.0)
+    springs: tuple[Spring, ...] = ()
+    joints: tuple[Joint, ...] = ()
+    linear_drag: float = 0.0
+    dim: int = 3
+    planar: bool = False
+    meta: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        if not self.bodies:
+            raise ValueError("scene.bodies must hold at least one body")
+        _set(self, "gravity", _vec("scene.gravity", self.gravity))
+        _set(self, "linear_drag", _nonnegative("scene.linear_drag", self.linear_drag))
+        if self.dim not in (2, 3):
+            raise ValueError(f"scene.dim must be 2 or 3, got {self.dim}")
+        n = len(self.bodies)
+        for s in self.springs:
+            for idx in (s.body, s.other):
+                if idx is not None and not 0 <= idx < n:
+                    raise ValueError(f"spring body index must be in [0, {n - 1}], got {idx}")
+        for j in self.joints:
+            if not 0 <= j.body < n:
+                raise ValueError(f"joint body index must be in [0, {n - 1}], got {j.body}")
+
+    def features(self) -> set[str]:
+        """What the scene needs simulated; engines build their step from this only."""
+        out = set()
+        if any(self.gravity):
+            out.add("gravity")
+        if self.springs:
+            out.add("springs")
+        if self.joints:
+            out.add("joints")
+        if self.linear_drag > 0:
+            out.add("drag")
+        return out
+
+    def stays_in_xz_plane(self) -> bool:
+        """True when every body's motion stays in the x-z plane (y = 0, no y velocity or force)."""
+        if self.gravity[1] != 0:
+            return False
+        if any(b.position[1] != 0 or b.velocity[1] != 0 for b in self.bodies):
+            return False
+        if any(s.anchor[1] != 0 for s in self.springs):
+            return False
+        return all(j.anchor[1] == 0 and abs(j.axis[1]) == 1.0 for j in self.joints)
+
+    @property
+    def masses(self) -> np.ndarray:
+        return np.array([b.mass for b in self.bodies])
+
+    @property
+    def positions(self) -> np.ndarray:
+        return np.array([b.position for b in self.bodies])
+
+    @property
+    def velocities(self) -> np.ndarray:
+        return np.array([b.velocity for b in self.bodies])

@@ -1,0 +1,152 @@
+"""Saves each run as a directory (results.csv + manifest.json), atomically; loads runs back.
+
+A run directory is never overwritten by another run: run ids carry a timestamp and a random
+suffix. Within a run, every finished row is written at once (write to a temporary file, then
+rename), so an interrupted run keeps all finished rows and can be resumed.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import secrets
+import subprocess
+import sys
+import tempfile
+from datetime import datetime, timezone
+from pathlib import Path
+
+import pandas as pd
+
+DEFAULT_ROOT = Path("reports") / "runs"
+KEY = ["case", "variant", "engine", "engine_variant", "integrator", "dt"]
+
+
+def new_run_id() -> str:
+    return datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-" + secrets.token_hex(3)
+
+
+def atomic_write(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+class RunStore:
+    def __init__(self, run_dir: Path):
+        self.dir = Path(run_dir)
+        self.rows: list[dict] = []
+
+    @classmethod
+    def create(cls, root: Path, manifest: dict) -> "RunStore":
+        store = cls(Path(root) / manifest["run_id"])
+        if store.dir.exists():
+            raise ValueError(f"run directory {store.dir} already exists")
+        store.write_manifest(manifest)
+        return store
+
+    @classmethod
+    def open(cls, run_dir: Path) -> "RunStore":
+        store = cls(run_dir)
+        if not (store.dir / "manifest.json").exists():
+            raise ValueError(f"run must be a stored run directory, no manifest in {store.dir}")
+        if (store.dir / "results.csv").exists():
+            store.rows = load_results(store.dir).to_dict("records")
+        return store
+
+    @property
+    def manifest(self) -> dict:
+        return json.loads((self.dir / "manifest.json").read_text())
+
+    def write_manifest(self, manifest: dict) -> None:
+        atomic_write(self.dir / "manifest.json", json.dumps(manifest, indent=2, default=str))
+
+    def update_manifest(self, **fields) -> None:
+        self.write_manifest({**self.manifest, **fields})
+
+    def done_keys(self) -> set:
+        return {row_key(r) for r in self.rows}
+
+    def add(self, row: dict) -> None:
+        self.rows.append(row)
+        self.write_table(pd.DataFrame(self.rows))
+
+    def write_table(self, table: pd.DataFrame) -> None:
+        atomic_write(self.dir / "results.csv", table.to_csv(index=False, na_rep="nan"))
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError:
+            return
+        tmp = self.dir / ".results.parquet.tmp"
+        table.to_parquet(tmp, index=False)
+        os.replace(tmp, self.dir / "results.parquet")
+
+
+def _key_value(value):
+    if value is None or (isinstance(value, float) and value != value):
+        return ""
+    if isinstance(value, float):
+        return float(f"{value:.12g}")
+    return str(value)
+
+
+def row_key(row: dict) -> tuple:
+    return tuple(_key_value(row[k]) for k in KEY)
+
+
+def load_results(run_dir: Path) -> pd.DataFrame:
+    table = pd.read_csv(Path(run_dir) / "results.csv", keep_default_na=False,
+                        na_values=["nan"])
+    for col in ("variant", "engine_variant", "reason"):
+        if col in table:
+            table[col] = table[col].astype(str)
+    return table
+
+
+def environment(engine_versions: dict, case_hashes: dict, threads: int) -> dict:
+    return {
+        "git_commit": _git_commit(),
+        "timestamp": datetime.now(timezone.utc).isoformat(),
+        "python": sys.version.split()[0],
+        "numpy": _version("numpy"), "scipy": _version("scipy"), "pandas": _version("pandas"),
+        "platform": platform.platform(),
+        "cpu": _cpu_model(),
+        "threads": threads,
+        "thread_env": {k: os.environ.get(k) for k in
+                       ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")},
+        "engines": engine_versions,
+        "case_hashes": case_hashes,
+    }
+
+
+def _version(package: str) -> str:
+    from importlib.metadata import version
+    try:
+        return version(package)
+    except Exception:
+        return "unknown"
+
+
+def _git_commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                             cwd=Path(__file__).resolve().parent, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except Exception:
+        return "unknown"
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
