@@ -10,6 +10,10 @@ import importlib
 # name -> "module:Class"; the order is the order of the report's columns
 _REGISTRY = {
     "refsim": "adapters.refsim_engine:RefsimEngine",
+    "pybullet": "adapters.pybullet_engine:PybulletEngine",
+    "mujoco": "adapters.mujoco_engine:MujocoEngine",
+    "pymunk": "adapters.pymunk_engine:PymunkEngine",
+    "taichi": "adapters.taichi_engine:TaichiEngine",
 }
 
 

@@ -26,9 +26,10 @@ class RefsimEngine(Engine):
     dims = (2, 3)
     integrators = INTEGRATORS
 
-    # Baumgarte rate as a fraction of 1/dt: w dt = 0.2 keeps the correction's eigenvalues
-    # (-w, double) inside every explicit stepper's stability region at every dt.
-    baumgarte_w_dt = 0.2
+    # Baumgarte rate w = 5 w0 (w0 = sqrt(|g|/L), or 1 rad/s without gravity): a fixed physical
+    # rate keeps every stepper's order (a rate tied to 1/dt drops RK4 to second order), and
+    # w dt stays far inside every explicit stepper's stability region for the dts used here.
+    baumgarte_ratio = 5.0
     # Penalty rod stiffness: rod frequency / pendulum frequency; the rod stretches by about
     # (w0 / w_rod)^2 L, so 100 gives a 1e-4 relative length error.
     penalty_ratio = 100.0
@@ -102,11 +103,13 @@ class ParticleSim(_SteppedSim):
             self.extra = {"penalty_stiffness": [s.stiffness for s in springs[-len(scene.joints):]],
                           "penalty_ratio": engine.penalty_ratio}
         elif scene.joints:
-            w = engine.baumgarte_w_dt / dt
+            lengths = np.array([j.length for j in scene.joints])
+            g = np.linalg.norm(scene.gravity)
+            w = engine.baumgarte_ratio * (np.sqrt(g / lengths.min()) if g > 0 else 1.0)
             rods = RodSet(body=np.array([j.body for j in scene.joints]),
                           anchor=np.array([j.anchor for j in scene.joints]),
-                          length=np.array([j.length for j in scene.joints]), baumgarte=w)
-            self.extra = {"baumgarte_w": w, "baumgarte_w_dt": engine.baumgarte_w_dt}
+                          length=lengths, baumgarte=w)
+            self.extra = {"baumgarte_w": w, "baumgarte_w_dt": w * dt}
         spring_set = SpringSet.from_scene(springs) if springs else None
         system = ParticleSystem(masses, scene.gravity, scene.linear_drag, spring_set, rods)
         super().__init__(dt, stepper, system, scene.positions.reshape(-1),
@@ -126,7 +129,8 @@ class ParticleSim(_SteppedSim):
         return out
 
     def settings(self):
-        formulation = {"": "cartesian", "kkt": "maximal coordinates, KKT + Baumgarte",
+        formulation = {"": "cartesian", "kkt": "maximal coordinates, Lagrange multipliers "
+                       "(KKT by its Schur complement) + Baumgarte",
                        "penalty": "maximal coordinates, penalty spring rod"}[self.variant]
         return {**self.base_settings(), "formulation": formulation, **self.extra}
 

@@ -98,7 +98,7 @@ class StiffSpring(Case):
             return 10 * rtol * p["amplitude"] * w_t, ADAPTIVE_REASON
         y = self.omega(p) * dt
         return order_tolerance(p["amplitude"], w_t, y, order) + 1e-13 * w_t / y * p[
-            "amplitude"], (f"order {order}: A * w0 t * (w0 dt)^{order}, the global error of an "
+            "amplitude"], (f"order {order}: A * expm1(w0 t (w0 dt)^{order}), the global error of an "
                            "order-p method after w0 t radians (error constant <= 1)")
 
 

@@ -145,7 +145,9 @@ ADAPTIVE_REASON = ("adaptive: local error held to rtol per step; the global erro
 
 
 def order_tolerance(scale: float, omega_t: float, y: float, order: int, extra: float = 0.0):
-    """scale * omega t * y^p: the global error of an order-p one-step method on an oscillation
-    after omega t radians, with y = omega dt and the leading error constant taken as 1 (the
-    largest among the steppers here is 1/2, explicit and implicit Euler's amplitude error)."""
-    return scale * max(omega_t, 1.0) * y ** order + extra
+    """scale * expm1(omega t * y^p): an order-p one-step method errs by at most c y^(p+1) in
+    amplitude and phase per step of y = omega dt (c <= 1/2 for every stepper here: explicit and
+    implicit Euler's (1 + y^2)^(+-1/2)), so over omega t / y steps the error is at most
+    scale * ((1 + y^(p+1))^(omega t / y) - 1) <= scale * expm1(omega t y^p); for small
+    arguments that is the familiar scale * omega t * y^p."""
+    return scale * np.expm1(max(omega_t, 1.0) * y ** order) + extra

@@ -1,4 +1,4 @@
-"""Forces on point masses, per unit mass (accelerations), with their Jacobians.
+"""Forces on point masses (springs, linear drag), with their Jacobians.
 
 Positions and velocities have shape (..., nbody, 3); Jacobians are (..., 3 nbody, 3 nbody).
 """
@@ -7,15 +7,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-
-def gravity_accel(gravity, shape) -> np.ndarray:
-    return np.broadcast_to(np.asarray(gravity, float), shape)
-
-
-def drag_accel(v, drag, masses) -> np.ndarray:
-    """Linear drag f = -b v, as an acceleration -b/m v."""
-    return -(drag / masses)[:, None] * v
 
 
 def drag_jacobian_v(drag, masses) -> np.ndarray:
@@ -49,11 +40,20 @@ class SpringSet:
         """Zero rest length and no damping: f = -k d is linear in x."""
         return bool(np.all(self.rest == 0) and np.all(self.damping == 0))
 
-    def _ends(self, x, v):
+    def __post_init__(self):
         has_other = self.other >= 0
-        other_x = np.where(has_other[:, None], x[..., np.maximum(self.other, 0), :], self.anchor)
-        other_v = np.where(has_other[:, None], v[..., np.maximum(self.other, 0), :], 0.0)
-        return x[..., self.body, :] - other_x, v[..., self.body, :] - other_v, has_other
+        ends = np.concatenate([self.body, self.other[has_other]])
+        object.__setattr__(self, "has_other", has_other)
+        object.__setattr__(self, "any_other", bool(has_other.any()))
+        object.__setattr__(self, "unique_ends", len(np.unique(ends)) == len(ends))
+
+    def _ends(self, x, v):
+        if not self.any_other:  # every spring to a fixed anchor
+            return x[..., self.body, :] - self.anchor, v[..., self.body, :]
+        has_other, safe = self.has_other[:, None], np.maximum(self.other, 0)
+        other_x = np.where(has_other, x[..., safe, :], self.anchor)
+        other_v = np.where(has_other, v[..., safe, :], 0.0)
+        return x[..., self.body, :] - other_x, v[..., self.body, :] - other_v
 
     def _axis(self, d):
         length = np.linalg.norm(d, axis=-1, keepdims=True)
@@ -62,20 +62,26 @@ class SpringSet:
 
     def forces(self, x, v) -> np.ndarray:
         """Force on every body: -k (|d| - L0) u - c (dv . u) u, equal and opposite on `other`."""
-        d, dv, has_other = self._ends(x, v)
+        d, dv = self._ends(x, v)
         length, unit = self._axis(d)
         f = -(self.stiffness[:, None] * (length - self.rest[:, None])) * unit
-        f = f - self.damping[:, None] * np.sum(dv * unit, axis=-1, keepdims=True) * unit
+        if self.damping.any():
+            f = f - self.damping[:, None] * np.sum(dv * unit, axis=-1, keepdims=True) * unit
         out = np.zeros_like(x)
+        if self.unique_ends:  # no body shared by two spring ends: plain indexed writes
+            out[..., self.body, :] = f
+            if self.any_other:
+                out[..., self.other[self.has_other], :] = -f[..., self.has_other, :]
+            return out
         _add_batched(out, self.body, f)
-        if has_other.any():
-            _add_batched(out, self.other[has_other], -f[..., has_other, :])
+        if self.any_other:
+            _add_batched(out, self.other[self.has_other], -f[..., self.has_other, :])
         return out
 
     def jacobians(self, x, v):
         """(df/dx, df/dv), each (..., 3n, 3n). The x-derivative of the damping direction is
         left out: exact when the motion stays along the spring axis (as in the cases here)."""
-        d, _, has_other = self._ends(x, v)
+        d, _ = self._ends(x, v)
         length, unit = self._axis(d)
         uu = unit[..., :, None] * unit[..., None, :]
         eye = np.eye(3)

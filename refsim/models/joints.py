@@ -72,34 +72,33 @@ def cartesian_to_hinge(x, v, anchor, length, d, s):
 
 @dataclass(frozen=True)
 class RodSet:
-    """Maximal-coordinate rods from fixed anchors, enforced by a KKT solve with Baumgarte."""
+    """Maximal-coordinate rods from fixed anchors, enforced by Lagrange multipliers with
+    Baumgarte stabilisation C'' + 2 w C' + w^2 C = 0, C = (|r|^2 - L^2) / 2 per rod."""
 
     body: np.ndarray
     anchor: np.ndarray
     length: np.ndarray
-    baumgarte: float  # w: C'' + 2 w C' + w^2 C = 0
+    baumgarte: float  # w (1/s)
 
     def constraint(self, x):
         """Rod-length error |x_b - anchor| - L, per rod (..., nrod)."""
         return np.linalg.norm(x[..., self.body, :] - self.anchor, axis=-1) - self.length
 
     def project(self, x, v, f, masses):
-        """Accelerations from forces f (..., nb, 3): solve [[M, J^T], [J, 0]] [a, lam] = [f, rhs]."""
-        nb, nr = x.shape[-2], len(self.body)
+        """Solve the KKT system [[M, J^T], [J, 0]] [a; lam] = [f; rhs] for the accelerations.
+
+        J has one row per rod, r^T in its body's block (r = x_b - anchor), and
+        rhs = -|v_b|^2 - 2 w r.v_b - w^2 C. Each rod acts on its own body, so the Schur
+        complement J M^-1 J^T is diagonal (|r|^2 / m): eliminating a gives
+        lam = (r.f/m - rhs) / (|r|^2/m) and a = (f - lam r) / m, the KKT solution exactly.
+        """
         r = x[..., self.body, :] - self.anchor
-        vr = v[..., self.body, :]
+        vb = v[..., self.body, :]
+        m = masses[self.body]
         c = 0.5 * (np.sum(r * r, axis=-1) - self.length ** 2)
-        cdot = np.sum(r * vr, axis=-1)
         w = self.baumgarte
-        rhs_c = -np.sum(vr * vr, axis=-1) - 2 * w * cdot - w * w * c
-        size = 3 * nb + nr
-        kkt = np.zeros(x.shape[:-2] + (size, size))
-        idx = np.arange(3 * nb)
-        kkt[..., idx, idx] = np.repeat(masses, 3)
-        rows = 3 * nb + np.arange(nr)
-        for k in range(3):  # J = r^T in the rod's body block; J^T beside it
-            kkt[..., rows, 3 * self.body + k] = r[..., k]
-            kkt[..., 3 * self.body + k, rows] = r[..., k]
-        rhs = np.concatenate([f.reshape(f.shape[:-2] + (3 * nb,)), rhs_c], axis=-1)
-        sol = np.linalg.solve(kkt, rhs[..., None])[..., 0]
-        return sol[..., :3 * nb].reshape(x.shape)
+        rhs = -np.sum(vb * vb, axis=-1) - 2.0 * w * np.sum(r * vb, axis=-1) - w * w * c
+        lam = (np.sum(r * f[..., self.body, :], axis=-1) / m - rhs) / (np.sum(r * r, axis=-1) / m)
+        force = f.copy()
+        force[..., self.body, :] -= lam[..., None] * r
+        return force / masses[:, None]

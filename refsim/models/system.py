@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .forces import SpringSet, drag_accel, drag_jacobian_v, gravity_accel
+from .forces import SpringSet, drag_jacobian_v
 from .joints import RodSet
 
 
@@ -17,6 +17,9 @@ class ParticleSystem:
         self.gravity = np.asarray(gravity, float)
         self.drag, self.springs, self.rods = float(drag), springs, rods
         self.has_gravity = bool(np.any(self.gravity))
+        self.inv_m = (1.0 / self.masses)[:, None]
+        self.weight = self.masses[:, None] * self.gravity  # (nbody, 3)
+        self.g_accel = np.broadcast_to(self.gravity, (self.nbody, 3)).copy()
         self.velocity_dependent = bool(
             self.drag > 0 or rods is not None or (springs is not None and springs.damping.any()))
         self.linear = rods is None and (springs is None or springs.linear)
@@ -32,20 +35,23 @@ class ParticleSystem:
         return out
 
     def forces(self, x, v):
-        f = np.zeros_like(x)
-        if self.has_gravity:
-            f = f + self.masses[:, None] * gravity_accel(self.gravity, x.shape)
+        """Forces other than gravity, (..., nbody, 3), or None when there are none."""
+        f = self.springs.forces(x, v) if self.springs is not None else None
         if self.drag > 0:
-            f = f + self.masses[:, None] * drag_accel(v, self.drag, self.masses)
-        if self.springs is not None:
-            f = f + self.springs.forces(x, v)
+            f = -self.drag * v if f is None else f - self.drag * v
         return f
 
     def accel(self, t, x, v):
         shape = x.shape[:-1] + (self.nbody, 3)
         xb, vb = x.reshape(shape), v.reshape(shape)
         f = self.forces(xb, vb)
-        a = self.rods.project(xb, vb, f, self.masses) if self.rods else f / self.masses[:, None]
+        if self.rods is not None:
+            total = self.weight if f is None else f + self.weight
+            a = self.rods.project(xb, vb, np.broadcast_to(total, shape), self.masses)
+        elif f is None:
+            a = np.broadcast_to(self.g_accel, shape)
+        else:
+            a = f * self.inv_m + self.g_accel
         return a.reshape(x.shape)
 
     def jacobians(self, t, x, v):
