@@ -258,32 +258,36 @@ class VelocityVerlet(Integrator):
 
 
 class StormerVerlet(Integrator):
-    """Position Verlet: x_{n+1} = 2 x_n - x_{n-1} + h^2 a(x_n).
+    """Position (Stormer) Verlet: x_{n+1} = 2 x_n - x_{n-1} + h^2 a(x_n), no velocities.
 
-    State (x_n, x_{n-1}); started with x_{-1} = x0 - h v0 + h^2/2 a0 so that x_1 is the Taylor
-    step; output velocity v_n = (x_n - x_{n-1})/h + h/2 a(x_n), which equals velocity Verlet's.
+    Run in its summed form (Hairer, Lubich & Wanner, Geometric Numerical Integration, I.1.4):
+    state (x_n, d_n = x_n - x_{n-1}), d_{n+1} = d_n + h^2 a(x_n), x_{n+1} = x_n + d_{n+1}; the
+    same recurrence with far less round-off than 2 x_n - x_{n-1}. Started with
+    d_0 = h v0 - h^2/2 a0 so that x_1 is the Taylor step; output velocity
+    v_n = d_n / h + h/2 a(x_n), which equals velocity Verlet's.
     """
 
     name, order, family, symplectic = "stormer_verlet", 2, "Verlet", True
 
     def start(self, system, t, x, v, h):
-        return (x, x - h * v + (0.5 * h * h) * system.accel(t, x, v))
+        return (x, h * v - (0.5 * h * h) * system.accel(t, x, v))
 
-    def _velocity(self, system, t, x, xp, h):
-        vb = (x - xp) / h
+    def _velocity(self, system, t, x, d, h):
+        vb = d / h
         v = vb + (0.5 * h) * system.accel(t, x, vb)
         if system.velocity_dependent:
             v = vb + (0.5 * h) * system.accel(t, x, v)
         return v
 
     def step(self, system, t, state, h):
-        x, xp = state
-        v = self._velocity(system, t, x, xp, h) if system.velocity_dependent else (x - xp) / h
-        return (2.0 * x - xp + (h * h) * system.accel(t, x, v), x)
+        x, d = state
+        v = self._velocity(system, t, x, d, h) if system.velocity_dependent else d / h
+        d = d + (h * h) * system.accel(t, x, v)
+        return (x + d, d)
 
     def output(self, system, t, state, h):
-        x, xp = state
-        return x, self._velocity(system, t, x, xp, h)
+        x, d = state
+        return x, self._velocity(system, t, x, d, h)
 
 
 class Leapfrog(Integrator):

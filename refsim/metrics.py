@@ -47,3 +47,25 @@ def bisect_limit(is_stable, lo: float, hi: float, tol: float = 1e-6) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if is_stable(mid) else (lo, mid)
     return lo
+
+
+def step_matrix(stepper, system, state_template, h) -> np.ndarray:
+    """The matrix of one step of `stepper` on a linear `system`, in the stepper's own state
+    (e.g. (x_n, x_{n-1}) for position Verlet): the state components are stacked into one
+    vector and each unit vector is stepped, all as one batch."""
+    sizes = [np.shape(s)[-1] for s in state_template]
+    total = sum(sizes)
+    basis = np.eye(total)
+    parts = np.split(basis, np.cumsum(sizes)[:-1], axis=1)
+    stepped = stepper.step(system, 0.0, tuple(parts), h)
+    return np.concatenate([np.asarray(s) for s in stepped], axis=1).T
+
+
+def oscillator_stable(stepper, y: float, omega: float = 1.0, slack: float = 1e-12) -> bool:
+    """Stable on x'' = -omega^2 x at y = omega h: spectral radius of the step matrix <= 1."""
+    from refsim.models.system import LinearSystem
+    system = LinearSystem([[omega * omega]])
+    h = y / omega
+    template = stepper.start(system, 0.0, np.zeros(1), np.zeros(1), h)
+    radius = spectral_radius(step_matrix(stepper, system, template, h))
+    return bool(np.all(np.isfinite(radius)) and radius <= 1.0 + slack)

@@ -112,16 +112,19 @@ def _blank_row(job: Job, run_id: str) -> dict:
     return row
 
 
-def run_job(job: Job, run_id: str = "", repeats: int = 3, budget_s: float = 2.0) -> dict:
+def run_job(job: Job, run_id: str = "", repeats: int = 3, budget_s: float = 2.0,
+            keep_trajectory: bool = False) -> dict:
+    """One row. repeats=0 skips the timing pass; keep_trajectory adds the stacked observations
+    under "trajectory" (for tests and plots; never stored in the table)."""
     row = _blank_row(job, run_id)
     try:
-        _run_job(job, row, repeats, budget_s)
+        _run_job(job, row, repeats, budget_s, keep_trajectory)
     except Exception as exc:  # a failure is a row, never a crash of the sweep
         row.update(status="failed", reason=f"{type(exc).__name__}: {exc}".splitlines()[0])
     return row
 
 
-def _run_job(job, row, repeats, budget_s):
+def _run_job(job, row, repeats, budget_s, keep_trajectory):
     case, engine = get_case(job.case), get_engine(job.engine)
     p = case.variant_params(job.variant, dict(job.params))
     scene = case.scene(p)
@@ -147,13 +150,16 @@ def _run_job(job, row, repeats, budget_s):
                    samples=len(obs))
         return
     row.update(_accuracy_metrics(case, p, stacked), status="ok", samples=len(obs))
+    if keep_trajectory:
+        row["trajectory"] = stacked
     tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
                               job.engine_variant, json.loads(row["settings"]))
     if tol >= case.motion_scale(p):  # a bound larger than the motion would accept any answer
         tol, why = case.motion_scale(p), (f"{why}; that bound ({tol:.3g}) exceeds the motion "
                                           f"itself, so it is capped at the motion scale")
     row.update(tolerance=tol, tol_reason=why, within_tol=bool(row["err_max"] <= tol))
-    row.update(_timing_pass(engine, scene, job, steps, repeats, budget_s))
+    if repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
+        row.update(_timing_pass(engine, scene, job, steps, repeats, budget_s))
 
 
 def _build(engine, scene, job):

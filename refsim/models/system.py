@@ -84,3 +84,23 @@ def finite_difference_jacobians(accel, t, x, v, rel=1e-6):
     jx = np.swapaxes((ax[..., :n, :] - ax[..., n:, :]) / (2 * step), -1, -2)
     jv = np.swapaxes((av[..., :n, :] - av[..., n:, :]) / (2 * stepv), -1, -2)
     return jx, jv
+
+
+class LinearSystem:
+    """a = -K x - C v with constant matrices (per unit mass): the test oscillator of stability
+    theory. With K = w^2, C = 0 (1x1) it is the undamped oscillator x'' = -w^2 x."""
+
+    linear = True
+
+    def __init__(self, stiffness, damping=None):
+        self.k = np.atleast_2d(np.asarray(stiffness, float))
+        self.c = np.zeros_like(self.k) if damping is None else np.atleast_2d(
+            np.asarray(damping, float))
+        self.velocity_dependent = bool(np.any(self.c))
+
+    def accel(self, t, x, v):
+        return -(x @ self.k.T) - (v @ self.c.T)
+
+    def jacobians(self, t, x, v):
+        shape = x.shape[:-1] + self.k.shape
+        return np.broadcast_to(-self.k, shape), np.broadcast_to(-self.c, shape)
