@@ -147,7 +147,7 @@ class PybulletSim(Sim):
             linkInertialFrameOrientations=[(0.0, 0.0, 0.0, 1.0)], linkParentIndices=[0],
             linkJointTypes=[p.JOINT_REVOLUTE], linkJointAxis=[tuple(-np.asarray(joint.axis))],
             useMaximalCoordinates=0, physicsClientId=cid)
-        self._exact_dynamics(uid, -1, 0.0)
+        self._exact_dynamics(uid, -1, None)  # the fixed base: no inertia to set
         self._exact_dynamics(uid, 0, body.inertia)
         p.setJointMotorControl2(uid, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
         theta, omega = cartesian_to_hinge(np.asarray(body.position), np.asarray(body.velocity),
@@ -156,14 +156,14 @@ class PybulletSim(Sim):
         return uid
 
     def _exact_dynamics(self, uid, link, inertia):
-        """ENGINE_NOTES (pybullet 3.2.7): damping off, 100 m/s clamp raised, inertia as given,
-        no sleeping."""
+        """ENGINE_NOTES (pybullet 3.2.7): damping off, 100 m/s clamp raised, inertia as given
+        (None for a fixed base), no sleeping."""
         kw = dict(linearDamping=0.0, angularDamping=0.0, maxJointVelocity=MAX_SPEED,
                   activationState=self.p.ACTIVATION_STATE_DISABLE_SLEEPING,
                   physicsClientId=self.client)
         if link >= 0:
             kw["jointDamping"] = 0.0
-        if link >= 0 or inertia > 0:  # a fixed base has no inertia to set
+        if inertia is not None:
             kw["localInertiaDiagonal"] = (inertia,) * 3
         self.p.changeDynamics(uid, link, **kw)
 
@@ -191,6 +191,8 @@ class PybulletSim(Sim):
         prm = self.engine_params
         out = {
             "integrator": dict(INTEGRATOR), "dtype": "float64", "threads": 1,
+            "dtype_note": ("pybullet wheels are double precision: free fall and springs agree "
+                           "with refsim's float64 kick-drift bit for bit"),
             "connection": "DIRECT", "fixedTimeStep": prm["fixedTimeStep"],
             "numSubSteps": prm["numSubSteps"],
             "gravity": [prm[f"gravityAcceleration{c}"] for c in "XYZ"],
@@ -200,6 +202,7 @@ class PybulletSim(Sim):
             "linearDamping": 0.0, "angularDamping": 0.0,
             "maxJointVelocity": "inf (default 100 m/s clamp removed)",
             "inertia": "as given by the scene (0 for a point mass) via localInertiaDiagonal",
+            "inertia_values": [b.inertia for b in self.scene.bodies],
             "collision_shapes": "none (nothing collides; no ground plane)",
             "sleeping": "disabled",
             "stages": self._stages(),

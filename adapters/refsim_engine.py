@@ -132,7 +132,13 @@ class ParticleSim(_SteppedSim):
         formulation = {"": "cartesian", "kkt": "maximal coordinates, Lagrange multipliers "
                        "(KKT by its Schur complement) + Baumgarte",
                        "penalty": "maximal coordinates, penalty spring rod"}[self.variant]
-        return {**self.base_settings(), "formulation": formulation, **self.extra}
+        out = {**self.base_settings(), "formulation": formulation, **self.extra}
+        if self.variant == "kkt":
+            # a symplectic stepper on the Baumgarte-stabilised index-1 ODE is not a symplectic
+            # integrator of the constrained system (that would be RATTLE): declare it so
+            out["integrator"] = {**out["integrator"], "symplectic": False,
+                                 "note": "not symplectic on the index-1 KKT formulation"}
+        return out
 
 
 class HingeSim(_SteppedSim):

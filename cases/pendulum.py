@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import ellipe, ellipj, ellipk
 
-from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol, order_tolerance
+from refsim.case import (ADAPTIVE_REASON, Case, Param, adaptive_rtol, is_symplectic,
+                         order_tolerance)
 from refsim.scene import Body, Joint, Scene
 
 
@@ -96,15 +97,20 @@ class Pendulum(Case):
         if rtol is not None:
             return 10 * rtol * theta0 * w_t + extra, ADAPTIVE_REASON + extra_reason
         y = self.omega(p) * dt
-        symplectic = (settings or {}).get("integrator", {}).get("symplectic", False)
-        growth = 1.0 if symplectic else 1.0 + period_sensitivity(theta0) * w_t
-        reason = (f"order {order}: theta0 * expm1(w0 t (w0 dt)^{order}), the global error of an "
-                  "order-p method after w0 t radians (error constant <= 1)")
-        if not symplectic:
-            reason += (f", times 1 + kappa w0 t = {growth:.3g}: a non-symplectic method's energy "
-                       f"error (~ w0 t (w0 dt)^p) changes the period by kappa = dlnT/dlnE = "
-                       f"{period_sensitivity(theta0):.3g} of it, and that phase error grows with t")
-        return order_tolerance(theta0, w_t, y, order) * growth + extra, reason + extra_reason
+        symplectic = is_symplectic(settings)
+        tol = order_tolerance(theta0, w_t, y, order, symplectic)
+        if symplectic:
+            reason = (f"order {order}, symplectic: theta0 ((w0 dt)^p + w0 t (w0 dt)^q), q = 2 "
+                      "ceil(p/2): a bounded shape error plus a linearly growing phase error "
+                      "(see order_tolerance)")
+        else:
+            kappa = period_sensitivity(theta0)
+            tol *= 1.0 + kappa * w_t
+            reason = (f"order {order}: theta0 expm1(w0 t (w0 dt)^p) (see order_tolerance), times "
+                      f"1 + kappa w0 t = {1 + kappa * w_t:.3g}: a non-symplectic method's energy "
+                      f"error changes the period by kappa = dlnT/dlnE = {kappa:.3g} of it, and "
+                      "that phase error grows with t")
+        return tol + extra, reason + extra_reason
 
     @staticmethod
     def _formulation_error(p, engine_variant, settings):

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol, order_tolerance
+from refsim.case import (ADAPTIVE_REASON, Case, Param, adaptive_rtol, is_symplectic,
+                         order_tolerance)
 from refsim.scene import Body, Scene, Spring
 
 Y_SWEEP = (0.2, 0.1, 0.05, 0.025)
@@ -97,9 +98,13 @@ class StiffSpring(Case):
         if rtol is not None:
             return 10 * rtol * p["amplitude"] * w_t, ADAPTIVE_REASON
         y = self.omega(p) * dt
-        return order_tolerance(p["amplitude"], w_t, y, order) + 1e-13 * w_t / y * p[
-            "amplitude"], (f"order {order}: A * expm1(w0 t (w0 dt)^{order}), the global error of an "
-                           "order-p method after w0 t radians (error constant <= 1)")
+        symplectic = is_symplectic(settings)
+        roundoff = 1e-13 * w_t / y * p["amplitude"]
+        tol = order_tolerance(p["amplitude"], w_t, y, order, symplectic) + roundoff
+        form = ("A ((w0 dt)^p + w0 t (w0 dt)^q), q = 2 ceil(p/2)" if symplectic
+                else "A expm1(w0 t (w0 dt)^p)")
+        return tol, (f"order {order}{', symplectic' if symplectic else ''}: {form}, the global "
+                     "error bound of such a method after w0 t radians (see order_tolerance)")
 
 
 def damped_oscillator(w0, zeta, u0, v0, t):

@@ -108,7 +108,8 @@ def _blank_row(job: Job, run_id: str) -> dict:
                 "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step",
                 "tolerance", "diverged_t"):
         row[col] = float("nan")
-    row.update(repeats=0, settings="{}", within_tol=False, tol_reason="", samples=0)
+    row.update(repeats=0, settings="{}", within_tol=False, tol_capped=False, tol_reason="",
+               samples=0)
     return row
 
 
@@ -154,9 +155,11 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory):
         row["trajectory"] = stacked
     tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
                               job.engine_variant, json.loads(row["settings"]))
-    if tol >= case.motion_scale(p):  # a bound larger than the motion would accept any answer
+    row["tol_capped"] = bool(tol >= case.motion_scale(p))
+    if row["tol_capped"]:  # a bound larger than the motion would accept any answer
         tol, why = case.motion_scale(p), (f"{why}; that bound ({tol:.3g}) exceeds the motion "
-                                          f"itself, so it is capped at the motion scale")
+                                          f"itself: capped at the motion scale (this dt does "
+                                          f"not resolve the case with this method)")
     row.update(tolerance=tol, tol_reason=why, within_tol=bool(row["err_max"] <= tol))
     if repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
         row.update(_timing_pass(engine, scene, job, steps, repeats, budget_s))

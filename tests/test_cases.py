@@ -1,0 +1,101 @@
+"""Every case runs on the in-house engine and meets its stated tolerance at its reference dt."""
+import json
+
+import numpy as np
+import pytest
+
+from adapters import get_engine
+from cases import case_names, get_case
+from refsim.integrators import INTEGRATORS
+from refsim.runner import Job, run_job
+
+ENGINE = get_engine("refsim")
+# on an undamped oscillator these are unstable at every step size (|R(iy)| > 1 for all y > 0):
+# the penalty rod (w_rod dt = 0.31 at the reference dt) must diverge under them
+NEVER_STABLE = {"explicit_euler", "midpoint", "heun", "rk2"}
+
+
+def _all_variants():
+    for name in case_names():
+        case = get_case(name)
+        for variant in case.variants:
+            scene = case.scene(case.variant_params(variant))
+            for formulation in ENGINE.variants(scene):
+                yield name, variant, formulation
+
+
+@pytest.mark.parametrize("name,variant,formulation", list(_all_variants()))
+def test_one_step(name, variant, formulation):
+    case = get_case(name)
+    p = case.variant_params(variant)
+    sim = ENGINE.build(case.scene(p), case.reference_dt(p), "rk4", formulation)
+    before = sim.observe()
+    sim.step(1)
+    after = sim.observe()
+    assert after["t"] == pytest.approx(case.reference_dt(p))
+    assert np.all(np.isfinite(after["x"])) and not np.array_equal(after["x"], before["x"])
+
+
+@pytest.mark.parametrize("name,variant,formulation", list(_all_variants()))
+def test_full_run_within_tolerance_at_reference_dt(name, variant, formulation):
+    case = get_case(name)
+    p = case.variant_params(variant)
+    failures = []
+    for integrator in INTEGRATORS:
+        row = run_job(Job(name, variant, "refsim", formulation, integrator,
+                          case.reference_dt(p)), repeats=0)
+        verdict = _verdict(case, p, formulation, integrator, row)
+        if verdict:
+            failures.append(f"{integrator}: {verdict}")
+    assert not failures, failures
+
+
+def _verdict(case, p, formulation, integrator, row):
+    if row["status"] == "diverged":
+        if formulation == "penalty" and integrator in NEVER_STABLE:
+            return None
+        return f"diverged: {row['reason']}"
+    if row["status"] != "ok":
+        return f"{row['status']}: {row['reason']}"
+    if row["tol_capped"]:
+        # the derived bound exceeds the motion itself: this dt does not resolve the case with
+        # this method; the row says so and promises no error. At these reference dts that may
+        # only happen to first-order methods whose energy error compounds (not symplectic).
+        declared = json.loads(row["settings"])["integrator"]
+        if declared["order"] == 1 and not declared["symplectic"]:
+            return None
+        return f"tolerance capped for {declared}"
+    return None if row["within_tol"] else (f"err_max {row['err_max']:.3g} > tolerance "
+                                           f"{row['tolerance']:.3g}")
+
+
+STAGES = {
+    ("free_fall", "default", ""): ["gravity", "integrate:rk4"],
+    ("free_fall", "drag", ""): ["gravity", "drag", "integrate:rk4"],
+    ("stiff_spring", "default", ""): ["springs", "integrate:rk4"],
+    ("stiff_spring", "underdamped", ""): ["springs", "integrate:rk4"],
+    ("pendulum", "default", "generalized"): ["gravity", "hinge_generalized", "integrate:rk4"],
+    ("pendulum", "default", "kkt"): ["gravity", "kkt_rods", "integrate:rk4"],
+    ("pendulum", "default", "penalty"): ["gravity", "penalty_rods", "integrate:rk4"],
+}
+
+
+@pytest.mark.parametrize("key", STAGES)
+def test_stage_list_is_built_from_scene_features(key):
+    name, variant, formulation = key
+    case = get_case(name)
+    p = case.variant_params(variant)
+    sim = ENGINE.build(case.scene(p), 1e-3, "rk4", formulation)
+    settings = json.loads(json.dumps(sim.settings()))
+    assert settings["stages"] == STAGES[key]
+
+
+def test_explicit_euler_takes_large_amplitude_pendulum_over_the_top():
+    """Explicit Euler's energy gain ((1 + y^2) per step on the linearised swing) exceeds the
+    1 % margin below the separatrix at theta0 = 3: the pendulum starts to rotate."""
+    case = get_case("pendulum")
+    p = case.variant_params("large_amplitude")
+    row = run_job(Job("pendulum", "large_amplitude", "refsim", "generalized", "explicit_euler",
+                      1e-3), repeats=0, keep_trajectory=True)
+    theta = case.observables(p, row["trajectory"])["theta"]
+    assert np.any(np.abs(np.diff(theta)) > np.pi)  # wrapped through +-pi: went over the top
