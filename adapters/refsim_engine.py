@@ -158,8 +158,8 @@ class HingeSim(_SteppedSim):
                                     for i in range(len(self.bodies))]) for k in (0, 1))
         g_over_l, drag_over_m = g_plane / self.length, scene.linear_drag / masses
         self.scalar = len(self.bodies) == 1
-        if self.scalar:  # one rod: scalar state, an order of magnitude less numpy overhead
-            theta0, omega0, g_over_l, drag_over_m = (np.float64(a[0]) for a in
+        if self.scalar:  # one rod: plain-float state, no numpy overhead per operation
+            theta0, omega0, g_over_l, drag_over_m = (float(a[0]) for a in
                                                      (theta0, omega0, g_over_l, drag_over_m))
         system = HingeSystem(g_over_l=g_over_l, drag_over_m=drag_over_m,
                              velocity_dependent=scene.linear_drag > 0)

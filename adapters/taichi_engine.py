@@ -20,18 +20,20 @@ ENGINE_NOTES.md facts applied (taichi 1.7.4), all reported in `Sim.settings()`:
   TI_SKIP_VERSION_CHECK=ON is set before the import and the offline kernel cache is pointed at
   a temp directory (and left off: `compile_s` is then always a cold JIT, comparable run to run);
 - `default_fp` is f32 (5e-5 error on free fall): ti.init(default_fp=ti.f64), and every kernel
-  argument and field is declared f64;
+  argument and array is declared f64;
 - the outermost loop of a kernel runs in parallel: the time loop carries
   `ti.loop_config(serialize=True)` (inner loops are serial), so runs are bit-reproducible;
-- one launch per step from Python costs about 29 us (50-90 us on this 2-core box) against
-  ~0.05 us per step inside a kernel: the default runs the loop in the kernel; the engine
-  variant "launch_per_step" launches once per step and records the launch cost it measured;
+- one launch per step from Python costs about 29 us (measured here: 50-90 us, growing with the
+  number of array arguments) against ~0.05 us per step inside a kernel: the default runs the
+  loop in the kernel; the engine variant "launch_per_step" launches once per step and records
+  the launch cost it measured;
 - the first call compiles (about 0.1 s cold) and each new template argument recompiles: build
   makes the first calls and reports their time as `compile_s`; state and parameters are
   ndarray/argpack arguments and n is a runtime i32, so no build or step recompiles anything;
 - taichi uses every core by default: cpu_max_num_threads = 1 (a serial loop uses one anyway).
 `fast_math` (default True) is turned off so LLVM may not reassociate float64 arithmetic.
-`ti.init` runs once per process, lazily in the first `build`. TI_ENABLE_PYBUF=0: with a
+`ti.init` runs once per process, lazily in the first `build` (a second ti.init would reset the
+runtime and every kernel and array made before it). TI_ENABLE_PYBUF=0: with a
 redirected sys.stdout (pytest, notebooks) taichi otherwise wraps every kernel call to flush a
 print buffer, a per-launch cost these kernels (which never print) need not pay.
 No `from __future__ import annotations` here: taichi reads `ti.template()` annotations as objects.
@@ -87,7 +89,8 @@ def _runtime() -> dict:
                 fast_math=False, offline_cache=OFFLINE_CACHE, offline_cache_file_path=CACHE_DIR,
                 log_level="warn")
     init_s = time.perf_counter() - t0
-    _RUNTIME.update(ti=ti, init_s=init_s, lib=_define(ti), kernels={}, compiled=set())
+    _RUNTIME.update(ti=ti, init_s=init_s, lib=_define(ti), kernels={}, compiled=set(),
+                    launch_us={})
     return _RUNTIME
 
 
@@ -214,17 +217,17 @@ def _kernels(system: str, integrator: str):
 
 def _launch_overhead_us(advance, args) -> float:
     """Cost of one kernel launch from Python (n = 0 steps): the price of `launch_per_step`.
-    Measured once per process and system, best of 5 rounds of 200 launches."""
-    key = ("launch_us", advance)
-    if key not in _RUNTIME:
+    Measured once per process and kernel, best of 10 rounds of 100 launches."""
+    measured = _RUNTIME["launch_us"]
+    if advance not in measured:
         best = math.inf
-        for _ in range(5):
+        for _ in range(10):
             t0 = time.perf_counter()
-            for _ in range(200):
+            for _ in range(100):
                 advance(*args, 0)
-            best = min(best, (time.perf_counter() - t0) / 200)
-        _RUNTIME[key] = best * 1e6
-    return _RUNTIME[key]
+            best = min(best, (time.perf_counter() - t0) / 100)
+        measured[advance] = best * 1e6
+    return measured[advance]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -386,11 +389,8 @@ class ParticleSim(_KernelSim):
                       velocity_dependent=velocity_dependent, **nd)
 
     def observe(self):
-        out = {"t": self.t, "x": self.x.to_numpy().reshape(-1, 3),
-               "v": self.v.to_numpy().reshape(-1, 3)}
-        if self.scene.joints:  # not reached: jointed scenes run as HingeSim
-            out["constraint"] = np.zeros(len(self.scene.joints))
-        return out
+        return {"t": self.t, "x": self.x.to_numpy().reshape(-1, 3),
+                "v": self.v.to_numpy().reshape(-1, 3)}
 
     def settings(self):
         stages = [name for name, on in (("gravity", any(self.scene.gravity)),

@@ -1,0 +1,132 @@
+"""`refsim bench`: speed figures of the in-house engine, printed, on one core.
+
+1. microseconds per RK4 step on one pendulum (the engine's Sim.step);
+2. pendulum-steps per second of RK4 on a batch of 10,000 pendulums (goal >= 1e7);
+3. wall time to reach err_max <= 1e-8 on the 10 s pendulum (theta0 = 1 rad) with the fastest
+   in-house method, against scipy's solve_ivp (DOP853) measured beside it, both producing the
+   trajectory at the same 1001 sample times (goal: at most 1.0x solve_ivp's time).
+Times are the minimum over repeats (the least disturbed run), after a warm-up.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+TARGET = 1e-8
+DURATION, SAMPLE = 10.0, 0.01
+W0 = np.sqrt(9.81)
+THETA0 = 1.0
+
+
+def best_time(fn, repeats=5):
+    fn()  # warm-up
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def single_pendulum_rk4(steps=20000, repeats=5):
+    from adapters import get_engine
+    from cases import get_case
+    case = get_case("pendulum")
+    scene = case.scene(case.variant_params("default"))
+    engine = get_engine("refsim")
+
+    def run():
+        engine.build(scene, 1e-3, "rk4", "generalized").step(steps)
+    return best_time(run, repeats) / steps * 1e6
+
+
+def batch_pendulums_rk4(n=10_000, steps=200, repeats=5):
+    from refsim.integrators import get_integrator
+    from refsim.models.joints import HingeSystem
+    system = HingeSystem(np.array([W0 * W0]), np.array([0.0]))
+    stepper = get_integrator("rk4")
+    theta0 = np.linspace(0.1, 3.0, n)[:, None]
+
+    def run():
+        state = stepper.start(system, 0.0, theta0, np.zeros_like(theta0), 1e-3)
+        stepper.advance(system, 0.0, state, 1e-3, steps)
+    return n * steps / best_time(run, repeats)
+
+
+def _samples():
+    return np.arange(int(round(DURATION / SAMPLE)) + 1) * SAMPLE
+
+
+def inhouse_trajectory(spec, substeps):
+    """theta at the sample times, `substeps` steps of the stepper per sample interval."""
+    from refsim.integrators import get_integrator
+    from refsim.models.joints import HingeSystem
+    system = HingeSystem(float(W0 * W0), 0.0)
+    stepper = get_integrator(spec)
+    h = SAMPLE / substeps
+    state = stepper.start(system, 0.0, float(THETA0), 0.0, h)
+    n = len(_samples())
+    out = np.empty(n)
+    out[0] = THETA0
+    t = 0.0
+    for k in range(1, n):
+        t, state = stepper.advance(system, t, state, h, substeps)
+        out[k] = stepper.output(system, t, state, h)[0]
+    return out
+
+
+def scipy_trajectory(rtol):
+    from scipy.integrate import solve_ivp
+    sol = solve_ivp(lambda _, y: [y[1], -W0 * W0 * np.sin(y[0])], (0.0, DURATION),
+                    [THETA0, 0.0], method="DOP853", rtol=rtol, atol=rtol * 1e-3,
+                    t_eval=_samples())
+    return sol.y[0]
+
+
+def _error(theta):
+    from cases.pendulum import exact_pendulum
+    return float(np.max(np.abs(theta - exact_pendulum(THETA0, W0, _samples())[0])))
+
+
+def _coarsest(make, settings):
+    """First setting (coarse to fine) whose trajectory meets the target."""
+    for s in settings:
+        err = _error(make(s))
+        if err <= TARGET:
+            return s, err
+    return None, float("nan")
+
+
+def time_to_target(repeats=5):
+    rows = []
+    for spec, subs in (("rk4", range(1, 12)), ("dopri5", range(1, 8)),
+                       ("dopri5_adaptive:1e-9", (1,)), ("dopri5_adaptive:1e-10", (1,))):
+        s, err = _coarsest(lambda m, spec=spec: inhouse_trajectory(spec, m), subs)
+        if s is not None:
+            t = best_time(lambda: inhouse_trajectory(spec, s), repeats)
+            rows.append((f"refsim {spec}, dt = {SAMPLE / s:.4g} s", err, t))
+    rtols = [10.0 ** (-k / 2) for k in range(12, 28)]
+    r, err = _coarsest(scipy_trajectory, rtols)
+    t_scipy = best_time(lambda: scipy_trajectory(r), repeats)
+    return rows, (f"scipy solve_ivp DOP853, rtol = {r:.2g}, atol = rtol/1e3", err, t_scipy)
+
+
+def main(quick: bool = False) -> int:
+    import os
+    repeats = 3 if quick else 5
+    print(f"refsim bench (one core: OMP/OPENBLAS threads = {os.environ.get('OMP_NUM_THREADS')})")
+    us = single_pendulum_rk4(5000 if quick else 20000, repeats)
+    print(f"1. RK4 on one pendulum (engine Sim.step):        {us:8.2f} us/step")
+    rate = batch_pendulums_rk4(10_000, 50 if quick else 200, repeats)
+    print(f"2. RK4 on a batch of 10,000 pendulums:         {rate:10.3e} pendulum-steps/s "
+          f"(goal >= 1e7)")
+    rows, scipy_row = time_to_target(repeats)
+    print(f"3. time to err_max <= {TARGET:g} on the 10 s pendulum (theta0 = 1), "
+          f"1001 samples:")
+    for label, err, t in rows + [scipy_row]:
+        print(f"   {label:45s} err_max {err:8.2e}  {t * 1e3:8.2f} ms")
+    best = min(rows, key=lambda r: r[2])
+    print(f"   fastest in-house / solve_ivp: {best[2] / scipy_row[2]:.2f}x "
+          f"({best[0]}; goal <= 1.0x, aim 0.5x)")
+    return 0
