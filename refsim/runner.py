@@ -67,6 +67,11 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
             if spec.partition(":")[0] not in offered:
                 raise ValueError(f"integrator must be one of {sorted(offered)} for engines "
                                  f"{[e.name for e in engines]}, got {spec!r}")
+    if variants:
+        known = sorted({v for c in cases for v in get_case(c).variants})
+        for v in variants:
+            if v not in known:
+                raise ValueError(f"variant must be one of {known}, got {v!r}")
     jobs = []
     for cname in cases:
         case = get_case(cname)

@@ -1,0 +1,96 @@
+"""The command line: listing, a small run end to end, resume, and bad input."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from refsim.store import DEFAULT_ROOT, KEY, load_results
+
+
+def refsim(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "refsim", *args], capture_output=True,
+                          text=True, cwd=cwd, timeout=300)
+
+
+@pytest.mark.parametrize("args,names", [
+    (["run", "--case", "nope"], "case must be one of"),
+    (["run", "--dt", "-1"], "--dt must be a finite number > 0"),
+    (["run", "--dt=-1"], "--dt must be a finite number > 0"),
+    (["run", "--dt", "nan"], "--dt must be a finite number > 0"),
+    (["run", "--dt", "abc"], "--dt must be a finite number > 0"),
+    (["run", "--engine", "nope"], "engine must be one of"),
+    (["run", "--integrator", "nope"], "integrator must be one of"),
+    (["run", "--integrator", "rk2:1.5"], "rk2 alpha must be in (0, 1]"),
+    (["run", "--case", "free_fall", "--param", "mass=-1"], "free_fall.mass must be in (0, "),
+    (["run", "--case", "pendulum", "--param", "theta0=inf"], "pendulum.theta0 must be in"),
+    (["run", "--param", "nosuch=1"], "--param 'nosuch' must be a parameter of"),
+    (["run", "--case", "pendulum", "--variant", "nope"], "variant must be one of"),
+    (["run", "--repeats", "0"], "--repeats must be an integer >= 1"),
+    (["run", "--bogus"], "unrecognized arguments"),
+])
+def test_bad_input_is_one_line_and_exit_2(args, names, tmp_path):
+    out = refsim(*args, "--out", str(tmp_path))
+    assert out.returncode == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    assert names in lines[0]
+    assert not any(tmp_path.iterdir()), "nothing may be written for bad input"
+
+
+def test_list_shows_cases_engines_integrators():
+    out = refsim("list")
+    assert out.returncode == 0
+    for word in ("free_fall", "stiff_spring", "pendulum", "refsim", "pybullet", "mujoco",
+                 "pymunk", "taichi", "dopri5_adaptive", "baraff_witkin", "order 4"):
+        assert word in out.stdout
+
+
+def _small_run(tmp_path, *extra):
+    out = refsim("run", "--case", "free_fall", "--engine", "refsim", "--integrator",
+                 "symplectic_euler", "--integrator", "rk4", "--dt", "0.01", "--dt", "0.005",
+                 "--variant", "default", "--repeats", "1", "--out", str(tmp_path), *extra)
+    assert out.returncode == 0, out.stderr
+    return out, Path(out.stdout.strip().splitlines()[-1])
+
+
+def test_run_writes_table_and_manifest(tmp_path):
+    out, run_dir = _small_run(tmp_path)
+    assert run_dir.parent == tmp_path and run_dir.is_dir()
+    table = load_results(run_dir)
+    assert len(table) == 4 and set(table["status"]) == {"ok"}
+    for col in ("run_id", "case", "engine", "engine_version", "integrator", "dt", "steps",
+                "t_end", "status", "reason", "err_max", "err_final", "err_rms", "energy_drift",
+                "setup_s", "compile_s", "step_s", "us_per_step", "repeats", "settings",
+                "order", "tolerance", "within_tol"):
+        assert col in table.columns, col
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    assert manifest["status"] == "complete" and manifest["engines"]["refsim"]
+    assert set(manifest["case_hashes"]) == {"free_fall"} and manifest["git_commit"]
+    # measured order: semi-implicit Euler's free-fall error g t dt / 2 is exactly first order
+    se = table[table["integrator"] == "symplectic_euler"]
+    assert se["order"].iloc[0] == pytest.approx(1.0, abs=1e-6)
+    assert "free_fall" in out.stdout and "symplectic_euler" in out.stdout
+
+
+def test_resume_finishes_without_redoing_rows(tmp_path):
+    _, run_dir = _small_run(tmp_path)
+    table = load_results(run_dir)
+    kept = table.iloc[:2]
+    kept.to_csv(run_dir / "results.csv", index=False, na_rep="nan")  # as if interrupted
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    (run_dir / "manifest.json").write_text(json.dumps({**manifest, "status": "running"}))
+    out = refsim("run", "--resume", run_dir.name, "--out", str(tmp_path))
+    assert out.returncode == 0, out.stderr
+    resumed = load_results(run_dir)
+    assert len(resumed) == 4
+    again = resumed.set_index(KEY).loc[kept.set_index(KEY).index]
+    # finished rows are carried over as they were, not run again
+    assert list(again["step_s"]) == list(kept["step_s"])
+
+
+def test_resume_unknown_run_is_bad_input(tmp_path):
+    out = refsim("run", "--resume", "nope", "--out", str(tmp_path))
+    assert out.returncode == 2 and "run must be a stored run directory" in out.stderr
