@@ -23,7 +23,10 @@ Facts applied, measured on pybullet 3.2.7 (ENGINE_NOTES.md):
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import sys
 
 import numpy as np
 
@@ -69,8 +72,34 @@ class PybulletEngine(Engine):
         reason = self.supports(scene, integrator)
         if reason:
             raise ValueError(reason)
-        import pybullet  # lazily: refsim works without pybullet installed
-        return PybulletSim(pybullet, scene, dt)
+        return PybulletSim(_import_pybullet(), scene, dt)
+
+
+def _import_pybullet():
+    """Import lazily: refsim works without pybullet installed."""
+    import pybullet
+    return pybullet
+
+
+@contextlib.contextmanager
+def _c_stdout_silenced():
+    """pybullet's C code prints 'pybullet build time: ...' on stdout at the first connect;
+    that line would land after `refsim run`'s last line (the run directory). Point fd 1 at
+    /dev/null around the call and flush C's stdio buffer there before restoring it."""
+    import ctypes
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+            try:
+                ctypes.CDLL(None).fflush(None)
+            except (OSError, AttributeError):
+                pass
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 def _rod_mismatch(scene, joint):
@@ -94,7 +123,8 @@ def _rod_mismatch(scene, joint):
 class PybulletSim(Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
-        self.client = p.connect(p.DIRECT)
+        with _c_stdout_silenced():
+            self.client = p.connect(p.DIRECT)
         try:
             self.engine_params = self._configure_world()
             self.handles, self.hinges = self._build_bodies()

@@ -62,7 +62,7 @@ class Pendulum(Case):
         return p["duration"]
 
     def dts(self, p):
-        return [4e-3, 2e-3, 1e-3, 5e-4]
+        return [4e-3, 2e-3, 1e-3]
 
     def reference_dt(self, p):
         return 1e-3

@@ -50,22 +50,39 @@ def reference_rows(table: pd.DataFrame) -> pd.DataFrame:
     return table.loc[picked]
 
 
+def _cell(r) -> str:
+    """err_max, energy drift and us/step of one row, or its status when not ok."""
+    if r["status"] != "ok":
+        return f"{r['status']:^26s}"
+    flag = "" if r["within_tol"] in (True, "True") else "!"
+    return (f"{_fmt(r['err_max'], '8.1e')}{flag:1s} {_fmt(r['energy_drift'], '7.1e')} "
+            f"{_fmt(r['us_per_step'], '8.3g')}")
+
+
 def print_summary(table: pd.DataFrame, stream=sys.stdout) -> None:
-    rows = reference_rows(table)
-    header = (f"{'case':13s} {'variant':15s} {'engine':20s} {'integrator':20s} {'dt':>9s} "
-              f"{'err_max':>9s} {'tol':>9s} {'E drift':>9s} {'order':>6s} {'us/step':>8s} status")
-    print(header, file=stream)
-    print("-" * len(header), file=stream)
-    for _, r in rows.iterrows():
-        engine = r["engine"] + (f":{r['engine_variant']}" if r["engine_variant"] else "")
-        status = r["status"] if r["status"] != "ok" else ("ok" if r["within_tol"] in
-                                                          (True, "True") else "ok>tol")
-        if r["status"] != "ok":
-            status += f" ({str(r['reason'])[:50]})"
-        print(f"{r['case']:13s} {r['variant']:15s} {engine:20s} {str(r['integrator']):20s} "
-              f"{_fmt(r['dt'], '9.3g')} {_fmt(r['err_max'], '9.2e')} "
-              f"{_fmt(r['tolerance'], '9.2e')} {_fmt(r['energy_drift'], '9.2e')} "
-              f"{_fmt(r['order'], '6.2f')} {_fmt(r['us_per_step'], '8.2f')} {status}",
-              file=stream)
+    """Per case and variant: every engine and integrator side by side at each dt (err_max,
+    energy drift, us/step; '!' marks an error above the case tolerance) with the measured
+    convergence order; rows that did not run show their status and reason once."""
+    for (case, variant), group in table.groupby(["case", "variant"], sort=False):
+        dts = sorted((d for d in group["dt"].unique() if np.isfinite(d)), reverse=True)
+        print(f"\n{case} / {variant}", file=stream)
+        pad = " " * 50
+        print(pad + " | ".join(f"dt = {d:.4g} s".center(26) for d in dts), file=stream)
+        print(f"  {'engine':20s} {'integrator':20s} {'order':>6s} " + " | ".join(
+            f"{'err_max':>9s} {'E_drift':>7s} {'us/step':>8s}" for _ in dts), file=stream)
+        notes = []
+        for (engine, ev, integ), sub in group.groupby(["engine", "engine_variant", "integrator"],
+                                                      sort=False, dropna=False):
+            label = engine + (f":{ev}" if ev else "")
+            if not np.isfinite(sub["dt"]).any():
+                notes.append(f"  {label}: {sub['status'].iloc[0]} ({sub['reason'].iloc[0]})")
+                continue
+            by_dt = {d: r for d, r in zip(sub["dt"], sub.to_dict("records"))}
+            cells = [_cell(by_dt[d]) if d in by_dt else f"{'':26s}" for d in dts]
+            print(f"  {label:20s} {str(integ):20s} {_fmt(sub['order'].iloc[0], '6.2f')} "
+                  + " | ".join(cells), file=stream)
+        for note in notes:
+            print(note, file=stream)
     counts = table["status"].value_counts().to_dict()
-    print(f"{len(table)} rows: " + ", ".join(f"{k} {v}" for k, v in counts.items()), file=stream)
+    print(f"\n{len(table)} rows: " + ", ".join(f"{k} {v}" for k, v in counts.items()),
+          file=stream)

@@ -56,7 +56,7 @@ class SpringSet:
         return x[..., self.body, :] - other_x, v[..., self.body, :] - other_v
 
     def _axis(self, d):
-        length = np.linalg.norm(d, axis=-1, keepdims=True)
+        length = np.sqrt(np.einsum("...i,...i->...", d, d))[..., None]
         unit = np.divide(d, length, out=np.zeros_like(d), where=length > 0)
         return length, unit
 
@@ -66,7 +66,7 @@ class SpringSet:
         length, unit = self._axis(d)
         f = -(self.stiffness[:, None] * (length - self.rest[:, None])) * unit
         if self.damping.any():
-            f = f - self.damping[:, None] * np.sum(dv * unit, axis=-1, keepdims=True) * unit
+            f = f - self.damping[:, None] * np.einsum("...i,...i->...", dv, unit)[..., None] * unit
         out = np.zeros_like(x)
         if self.unique_ends:  # no body shared by two spring ends: plain indexed writes
             out[..., self.body, :] = f
