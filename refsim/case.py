@@ -25,13 +25,18 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Param:
-    default: float
-    low: float
-    high: float
+    default: float | str
+    low: float = -math.inf
+    high: float = math.inf
     doc: str = ""
     low_inclusive: bool = True
+    choices: tuple = ()  # a categorical parameter: one of these strings
 
-    def check(self, name: str, value) -> float:
+    def check(self, name: str, value):
+        if self.choices:
+            if str(value) not in self.choices:
+                raise ValueError(f"{name} must be one of {list(self.choices)}, got {value!r}")
+            return str(value)
         try:
             value = float(value)
         except (TypeError, ValueError):
@@ -123,6 +128,10 @@ class Case:
     def source_hash(self) -> str:
         source = inspect.getsource(inspect.getmodule(type(self)))
         return hashlib.sha256(source.encode()).hexdigest()[:16]
+
+    def extra_metrics(self, p, obs: dict, observed: dict, reference: dict) -> dict:
+        """Case-specific columns (e.g. momentum_drift, penetration_max) from a whole run."""
+        return {}
 
     def error(self, p, observed: dict, reference: dict) -> np.ndarray:
         """Error of the compared observable at each sample (Euclidean norm over components)."""

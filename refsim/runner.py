@@ -110,6 +110,7 @@ def _blank_row(job: Job, run_id: str) -> dict:
            "engine_version": "", "steps": 0,
            "t_end": float("nan"), "status": "", "reason": "", "nominal_order": float("nan")}
     for col in ("err_max", "err_final", "err_rms", "energy_drift", "constraint_drift",
+                "momentum_drift", "penetration_max",
                 "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step",
                 "tolerance", "diverged_t"):
         row[col] = float("nan")
@@ -229,6 +230,7 @@ def _accuracy_metrics(case, p, stacked):
                                            else ref_energy, case.energy_scale(p))
     if "constraint" in observed:
         out["constraint_drift"] = float(np.max(np.abs(observed["constraint"])))
+    out.update(case.extra_metrics(p, stacked, observed, reference))
     return out
 
 

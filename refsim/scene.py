@@ -104,12 +104,45 @@ class Joint:
 
 
 @dataclass(frozen=True)
+class Wall:
+    """An infinite plane through `point`; `normal` (normalised here) points into free space."""
+
+    point: Vec
+    normal: Vec
+
+    def __post_init__(self):
+        _set(self, "point", _vec("wall.point", self.point))
+        normal = np.asarray(_vec("wall.normal", self.normal))
+        if np.linalg.norm(normal) == 0:
+            raise ValueError("wall.normal must be a non-zero vector")
+        _set(self, "normal", tuple(float(c) for c in normal / np.linalg.norm(normal)))
+
+
+@dataclass(frozen=True)
+class ContactModel:
+    """Rigid contact between spheres (and with walls): coefficient of restitution e in [0, 1]
+    (ratio of separating to approaching normal speed) and Coulomb friction mu >= 0."""
+
+    restitution: float = 1.0
+    friction: float = 0.0
+
+    def __post_init__(self):
+        e = float(self.restitution)
+        if not math.isfinite(e) or not 0.0 <= e <= 1.0:
+            raise ValueError(f"contact.restitution must be in [0, 1], got {e}")
+        _set(self, "restitution", e)
+        _set(self, "friction", _nonnegative("contact.friction", self.friction))
+
+
+@dataclass(frozen=True)
 class Scene:
     bodies: tuple[Body, ...]
     gravity: Vec = (0.0, 0.0, 0.0)
     springs: tuple[Spring, ...] = ()
     joints: tuple[Joint, ...] = ()
     linear_drag: float = 0.0
+    walls: tuple[Wall, ...] = ()
+    contact: ContactModel | None = None
     dim: int = 3
     planar: bool = False
     meta: dict = field(default_factory=dict, compare=False)
@@ -141,6 +174,10 @@ class Scene:
             out.add("joints")
         if self.linear_drag > 0:
             out.add("drag")
+        if self.contact is not None:
+            out.add("contacts")
+        if self.walls:
+            out.add("walls")
         return out
 
     def stays_in_xz_plane(self) -> bool:
@@ -150,6 +187,10 @@ class Scene:
         if any(b.position[1] != 0 or b.velocity[1] != 0 for b in self.bodies):
             return False
         if any(s.anchor[1] != 0 for s in self.springs):
+            return False
+        if any(w.normal[1] != 0 for w in self.walls):
+            return False
+        if any(b.angular_velocity[0] != 0 or b.angular_velocity[2] != 0 for b in self.bodies):
             return False
         return all(j.anchor[1] == 0 and abs(j.axis[1]) == 1.0 for j in self.joints)
 
@@ -164,3 +205,15 @@ class Scene:
     @property
     def velocities(self) -> np.ndarray:
         return np.array([b.velocity for b in self.bodies])
+
+    @property
+    def radii(self) -> np.ndarray:
+        return np.array([b.radius for b in self.bodies])
+
+    @property
+    def inertias(self) -> np.ndarray:
+        return np.array([b.inertia for b in self.bodies])
+
+    @property
+    def angular_velocities(self) -> np.ndarray:
+        return np.array([b.angular_velocity for b in self.bodies])
