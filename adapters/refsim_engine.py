@@ -17,12 +17,14 @@ from refsim.models.joints import (HingeSystem, RodSet, cartesian_to_hinge, hinge
                                   hinge_to_cartesian)
 from refsim.models.system import ParticleSystem
 
+from .refsim_contacts import CONTACT_VARIANTS, ContactSim
+
 JOINT_VARIANTS = ("generalized", "kkt", "penalty")
 
 
 class RefsimEngine(Engine):
     name = "refsim"
-    capabilities = frozenset({"gravity", "springs", "joints", "drag"})
+    capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"})
     dims = (2, 3)
     integrators = INTEGRATORS
 
@@ -39,11 +41,17 @@ class RefsimEngine(Engine):
         return __version__
 
     def variants(self, scene):
+        if scene.contact is not None:
+            return CONTACT_VARIANTS
         return JOINT_VARIANTS if scene.joints else ("",)
 
     def supports(self, scene, integrator=None):
         reason = super().supports(scene, integrator)
-        if reason or not scene.joints:
+        if reason:
+            return reason
+        if scene.contact is not None:
+            return _contact_support(scene, integrator)
+        if not scene.joints:
             return reason
         jointed = {j.body for j in scene.joints}
         if len(jointed) != len(scene.joints) or len(jointed) != len(scene.bodies):
@@ -56,6 +64,11 @@ class RefsimEngine(Engine):
         if scene.joints and variant not in JOINT_VARIANTS:
             raise ValueError(f"refsim variant must be one of {list(JOINT_VARIANTS)}, "
                              f"got {variant!r}")
+        if scene.contact is not None:
+            reason = _contact_support(scene, integrator)
+            if reason:
+                raise ValueError(reason)
+            return ContactSim(scene, dt, variant)
         stepper = get_integrator(integrator)
         if scene.joints and variant == "generalized":
             return HingeSim(scene, dt, stepper)
@@ -180,6 +193,17 @@ class HingeSim(_SteppedSim):
 
     def settings(self):
         return {**self.base_settings(), "formulation": "generalized coordinate (hinge angle)"}
+
+
+def _contact_support(scene, integrator):
+    if integrator not in (None, "symplectic_euler"):
+        return ("refsim contact scenes step with symplectic Euler plus impulses: the contact "
+                "solver defines the step")
+    if scene.springs or scene.joints or scene.linear_drag:
+        return "refsim contact scenes: springs, rods and drag are not combined with contacts"
+    if np.any(scene.radii <= 0):
+        return "refsim contacts need spheres (radius > 0)"
+    return None
 
 
 def _rod_spring(joint, stiffness):

@@ -169,18 +169,33 @@ class CollidingSpheres(Case):
         return 0.0
 
     def outcome(self, p):
-        """Exact post-impact velocities (nbody, 3) of the pair or the ideal cradle."""
-        x0, v0, m, _ = self._initial(p)
-        v1 = v0.copy()
+        """Exact post-impact (velocities, angular velocities), each (nbody, 3), of the pair
+        (Newton restitution along n; with friction, the Coulomb stick/slide impulse law of
+        Guendelman, Bridson & Fedkiw 2003 for one impact) or the ideal cradle."""
+        x0, v0, m, w0 = self._initial(p)
+        v1, w1 = v0.copy(), w0.copy()
         if p["layout"] == "cradle":
             v1[0], v1[-1] = v0[-1], v0[0]
-            return v1
-        r, b, e = p["radius"], p["impact"], p["restitution"]
+            return v1, w1
+        r, b, e, mu = p["radius"], p["impact"], p["restitution"], p["friction"]
         n = np.array([np.sqrt(4 * r * r - b * b), 0.0, b]) / (2 * r)
-        j = (1 + e) * m[0] * m[1] / (m[0] + m[1]) * ((v0[0] - v0[1]) @ n)
-        v1[0] -= j / m[0] * n
-        v1[1] += j / m[1] * n
-        return v1
+        arm1, arm2 = r * n, -r * n  # centre -> contact point
+        u = (v0[1] + np.cross(w0[1], arm2)) - (v0[0] + np.cross(w0[0], arm1))
+        un = u @ n
+        pn = -(1 + e) * un / (1 / m[0] + 1 / m[1])
+        impulse = pn * n
+        ut = u - un * n
+        slide = np.linalg.norm(ut)
+        if mu > 0 and slide > 0:
+            inertia = 0.4 * m * r * r
+            k_t = 1 / m[0] + 1 / m[1] + r * r / inertia[0] + r * r / inertia[1]
+            impulse = impulse - min(slide / k_t, mu * pn) * ut / slide
+        v1[0] -= impulse / m[0]
+        v1[1] += impulse / m[1]
+        inertia = 0.4 * m * r * r
+        w1[0] -= np.cross(arm1, impulse) / inertia[0]
+        w1[1] += np.cross(arm2, impulse) / inertia[1]
+        return v1, w1
 
     def reference(self, p, t):
         t = np.asarray(t, float)
@@ -189,7 +204,7 @@ class CollidingSpheres(Case):
         x0, v0, _, _ = self._initial(p)
         tc = self.contact_time(p)
         after = (t > tc)[:, None, None]
-        v1 = self.outcome(p)
+        v1, _ = self.outcome(p)
         x_c = x0 + v0 * tc
         x = np.where(after, x_c + v1 * (t - tc)[:, None, None], x0 + v0 * t[:, None, None])
         v = np.where(after, v1, v0)
@@ -234,10 +249,11 @@ class CollidingSpheres(Case):
         inertia = 0.4 * m * p["radius"] ** 2
         spin = 0.5 * np.sum(inertia * np.sum(w0 * w0, axis=1))
         e0 = 0.5 * np.sum(m * np.sum(v0 * v0, axis=1)) + spin
-        if p["layout"] == "box" or p["friction"] > 0:
-            return np.full(len(t), e0)  # box: elastic; friction: no closed form (see tolerance)
-        v1 = self.outcome(p)
-        e1 = 0.5 * np.sum(m * np.sum(v1 * v1, axis=1)) + spin
+        if p["layout"] == "box":
+            return np.full(len(t), e0)  # elastic walls and impacts
+        v1, w1 = self.outcome(p)
+        e1 = 0.5 * np.sum(m * np.sum(v1 * v1, axis=1)) + 0.5 * np.sum(
+            inertia * np.sum(w1 * w1, axis=1))
         return np.where(np.asarray(t) > self.contact_time(p), e1, e0)
 
     def energy_scale(self, p):
@@ -266,21 +282,25 @@ class CollidingSpheres(Case):
 
     # -- tolerance ---------------------------------------------------------------------------
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        contact = (settings or {}).get("contact_model", "impulse")
+        settings = settings or {}
+        contact = settings.get("contact_model", "impulse")
         v, e = p["speed"], p["restitution"]
         if p["layout"] == "box":
             return 1e-6, ("elastic impacts conserve kinetic energy exactly; 1e-6 allows the "
                           "round-off of ~1e4 impacts and simultaneous (Jacobi) impulses")
-        if p["friction"] > 0 and p["layout"] == "pair":
-            return 1e-9 * v, ("frictional impact: Guendelman-style stick/slide on the impulse "
-                              "model, exact to round-off for a single impact")
         if contact == "soft":
             return 0.1 * (1 + e) * v, (
                 "soft (spring-damper) contact: the restitution obtained from a damping ratio is "
                 "approximate, +9 % to -10 % (ENGINE_NOTES.md), on a velocity change (1+e) v")
-        return 1e-9 * v, ("impulse contact with Newton's restitution law: the exact outcome "
-                          "to round-off, whatever the step (the impulse does not depend on "
-                          "where in the step the contact is found)")
+        tol, reason = 1e-9 * v, ("impulse contact with Newton's restitution law (and Coulomb "
+                                 "stick/slide): the exact outcome to round-off")
+        if settings.get("detection", "discrete") == "discrete" and p["impact"] > 0:
+            v_rel = 2 * v
+            tol += (1 + e) * v_rel * v_rel * dt / p["radius"]
+            reason += (f"; plus discrete detection: the pair is found up to one step late, "
+                       f"overlapped by up to v_rel dt, which tilts the contact normal by up to "
+                       f"v_rel dt / (2 r) and the outcome by (1 + e) v_rel times twice that")
+        return tol, reason
 
 
 def penetration(x, radius, side=None) -> float:

@@ -4,7 +4,8 @@
 2. pendulum-steps per second of RK4 on a batch of 10,000 pendulums (goal >= 1e7);
 3. wall time to reach err_max <= 1e-8 on the 10 s pendulum (theta0 = 1 rad) with the fastest
    in-house method, against scipy's solve_ivp (DOP853) measured beside it, both producing the
-   trajectory at the same 1001 sample times (goal: at most 1.0x solve_ivp's time).
+   trajectory at the same 1001 sample times (goal: at most 1.0x solve_ivp's time);
+4. the contact step on a box of N = 1e2, 1e3, 1e4 spheres, and the fitted cost exponent.
 Times are the minimum over repeats (the least disturbed run), after a warm-up.
 """
 from __future__ import annotations
@@ -112,6 +113,28 @@ def time_to_target(repeats=5):
     return rows, (f"scipy solve_ivp DOP853, rtol = {r:.2g}, atol = rtol/1e3", err, t_scipy)
 
 
+def sphere_box_costs(sizes=(100, 1000, 10_000), steps=50, repeats=3):
+    """us per step of the in-house discrete contact step on the box of N spheres, and the
+    least-squares exponent of cost against N."""
+    from adapters import get_engine
+    from cases import get_case
+    case, engine = get_case("colliding_spheres"), get_engine("refsim")
+    costs = []
+    for n in sizes:
+        scene = case.scene(case.variant_params("box_100", {"n_spheres": n}))
+        sims = [engine.build(scene, 1e-3, "symplectic_euler", "discrete")
+                for _ in range(repeats + 1)]
+        sims[0].step(5)  # warm-up
+        times = []
+        for sim in sims[1:]:
+            t0 = time.perf_counter()
+            sim.step(steps)
+            times.append(time.perf_counter() - t0)
+        costs.append(min(times) / steps * 1e6)
+    exponent = np.polyfit(np.log(sizes), np.log(costs), 1)[0]
+    return list(zip(sizes, costs)), exponent
+
+
 def main(quick: bool = False) -> int:
     import os
     repeats = 3 if quick else 5
@@ -129,4 +152,10 @@ def main(quick: bool = False) -> int:
     best = min(rows, key=lambda r: r[2])
     print(f"   fastest in-house / solve_ivp: {best[2] / scipy_row[2]:.2f}x "
           f"({best[0]}; goal <= 1.0x, aim 0.5x)")
+    rows, exponent = sphere_box_costs(steps=20 if quick else 50, repeats=repeats)
+    print("4. contact step, box of N spheres (discrete, e = 1, volume fraction 0.05):")
+    for n, us in rows:
+        print(f"   N = {n:6d}: {us:10.1f} us/step  ({us / n * 1e3:7.1f} ns per sphere-step)")
+    print(f"   cost exponent (least squares, N = {rows[0][0]}..{rows[-1][0]}): {exponent:.2f} "
+          f"(goal <= 1.2)")
     return 0
