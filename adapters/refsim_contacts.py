@@ -37,7 +37,6 @@ class ContactSim(Sim):
         self.wall_p = np.array([w.point for w in scene.walls]).reshape(-1, 3)
         self.wall_n = np.array([w.normal for w in scene.walls]).reshape(-1, 3)
         self.wall_impulse = np.zeros(3)
-        self.max_passes = 0
         self._step = {"discrete": self._discrete, "continuous": self._continuous,
                       "hard_sphere_seed": self._seed}[variant]
 
@@ -60,9 +59,8 @@ class ContactSim(Sim):
         """Pair impulses until none approaches, then walls; again while walls made a pair
         approach (bounded)."""
         for _ in range(10):
-            passes = col.resolve_pairs(self.v, self.w, self.inv_m, self.inv_i, self.r, i, j,
-                                       n, self.e, self.mu)
-            self.max_passes = max(self.max_passes, passes)
+            col.resolve_pairs(self.v, self.w, self.inv_m, self.inv_i, self.r, i, j, n,
+                              self.e, self.mu)
             impulse = col.resolve_walls(self.v, self.w, self.m, self.inv_i, self.r, s,
                                         self.wall_n[wall], self.e, self.mu)
             self.wall_impulse += impulse

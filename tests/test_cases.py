@@ -28,7 +28,9 @@ def _all_variants():
 def test_one_step(name, variant, formulation):
     case = get_case(name)
     p = case.variant_params(variant)
-    sim = ENGINE.build(case.scene(p), case.reference_dt(p), "rk4", formulation)
+    scene = case.scene(p)
+    integrator = next(i for i in ("rk4", "symplectic_euler") if ENGINE.supports(scene, i) is None)
+    sim = ENGINE.build(scene, case.reference_dt(p), integrator, formulation)
     before = sim.observe()
     sim.step(1)
     after = sim.observe()
@@ -40,8 +42,11 @@ def test_one_step(name, variant, formulation):
 def test_full_run_within_tolerance_at_reference_dt(name, variant, formulation):
     case = get_case(name)
     p = case.variant_params(variant)
+    scene = case.scene(p)
+    offered = [i for i in INTEGRATORS if ENGINE.supports(scene, i) is None]
+    assert offered
     failures = []
-    for integrator in INTEGRATORS:
+    for integrator in offered:
         row = run_job(Job(name, variant, "refsim", formulation, integrator,
                           case.reference_dt(p)), repeats=0)
         verdict = _verdict(case, p, formulation, integrator, row)
@@ -57,6 +62,9 @@ def _verdict(case, p, formulation, integrator, row):
         return f"diverged: {row['reason']}"
     if row["status"] != "ok":
         return f"{row['status']}: {row['reason']}"
+    if formulation == "hard_sphere_seed":
+        # the slide's flawed formula: the harness must catch it, not pass it
+        return "the seed formula passed its tolerance" if row["within_tol"] else None
     if row["tol_capped"]:
         # the derived bound exceeds the motion itself: this dt does not resolve the case with
         # this method; the row says so and promises no error. At these reference dts that may
@@ -77,6 +85,9 @@ STAGES = {
     ("pendulum", "default", "generalized"): ["gravity", "hinge_generalized", "integrate:rk4"],
     ("pendulum", "default", "kkt"): ["gravity", "kkt_rods", "integrate:rk4"],
     ("pendulum", "default", "penalty"): ["gravity", "penalty_rods", "integrate:rk4"],
+    ("colliding_spheres", "head_on", "discrete"): [
+        "broad_phase", "narrow_phase", "contacts:discrete", "projection",
+        "integrate:symplectic_euler"],
 }
 
 
@@ -85,7 +96,8 @@ def test_stage_list_is_built_from_scene_features(key):
     name, variant, formulation = key
     case = get_case(name)
     p = case.variant_params(variant)
-    sim = ENGINE.build(case.scene(p), 1e-3, "rk4", formulation)
+    integrator = "symplectic_euler" if name == "colliding_spheres" else "rk4"
+    sim = ENGINE.build(case.scene(p), 1e-3, integrator, formulation)
     settings = json.loads(json.dumps(sim.settings()))
     assert settings["stages"] == STAGES[key]
 
