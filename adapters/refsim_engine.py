@@ -18,13 +18,15 @@ from refsim.models.joints import (HingeSystem, RodSet, cartesian_to_hinge, hinge
 from refsim.models.system import ParticleSystem
 
 from .refsim_contacts import CONTACT_VARIANTS, ContactSim
+from .refsim_sph import FluidSim
 
 JOINT_VARIANTS = ("generalized", "kkt", "penalty")
 
 
 class RefsimEngine(Engine):
     name = "refsim"
-    capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"})
+    capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls",
+                              "fluid"})
     dims = (2, 3)
     integrators = INTEGRATORS
 
@@ -51,6 +53,8 @@ class RefsimEngine(Engine):
             return reason
         if scene.contact is not None:
             return _contact_support(scene, integrator)
+        if scene.fluid is not None and integrator not in (None, "velocity_verlet"):
+            return "refsim fluid scenes step with kick-drift-kick SPH ('velocity_verlet')"
         if not scene.joints:
             return reason
         jointed = {j.body for j in scene.joints}
@@ -69,6 +73,11 @@ class RefsimEngine(Engine):
             if reason:
                 raise ValueError(reason)
             return ContactSim(scene, dt, variant)
+        if scene.fluid is not None:
+            if integrator not in (None, "velocity_verlet"):
+                raise ValueError("refsim fluid scenes step with kick-drift-kick SPH "
+                                 "(integrator 'velocity_verlet')")
+            return FluidSim(scene, dt)
         stepper = get_integrator(integrator)
         if scene.joints and variant == "generalized":
             return HingeSim(scene, dt, stepper)

@@ -65,7 +65,9 @@ class CollidingSpheres(Case):
         "head_on_1to3_e0.5": {"ratio": 3.0, "restitution": 0.5},
         "oblique": {"impact": 0.1},
         "oblique_friction": {"impact": 0.1, "friction": 0.3, "spin": 20.0},
-        "cradle": {"layout": "cradle"},
+        # r = 1/8: centres 2r apart are exact in binary, so the resting spheres touch exactly
+        # (with r = 0.1 round-off makes some pairs overlap by 6e-17 m and others gap)
+        "cradle": {"layout": "cradle", "radius": 0.125},
         "box_100": {"layout": "box", "n_spheres": 100},
         "box_1000": {"layout": "box", "n_spheres": 1000},
     }

@@ -135,6 +135,38 @@ class ContactModel:
 
 
 @dataclass(frozen=True)
+class FluidBlock:
+    """A 2D block of liquid [x0, x1] x [y0, y1] (m) sampled at `spacing`, at rest and in
+    hydrostatic balance at t = 0, inside a rectangular `tank` [0, tank_width] x [0,
+    tank_height] with solid walls. Weakly compressible: sound speed c0; Monaghan's artificial
+    viscosity alpha; smoothing length h = smoothing * spacing."""
+
+    lower: tuple[float, float]
+    upper: tuple[float, float]
+    spacing: float
+    tank_width: float
+    tank_height: float
+    density: float = 1000.0
+    sound_speed: float = 20.0
+    viscosity_alpha: float = 0.02
+    smoothing: float = 1.3
+
+    def __post_init__(self):
+        for name in ("spacing", "tank_width", "tank_height", "density", "sound_speed",
+                     "smoothing"):
+            _set(self, name, _positive(f"fluid.{name}", getattr(self, name)))
+        _set(self, "viscosity_alpha", _nonnegative("fluid.viscosity_alpha",
+                                                   self.viscosity_alpha))
+        lo, hi = tuple(map(float, self.lower)), tuple(map(float, self.upper))
+        if len(lo) != 2 or len(hi) != 2 or not all(a < b for a, b in zip(lo, hi)):
+            raise ValueError(f"fluid block must have lower < upper in 2D, got {lo}, {hi}")
+        if lo[0] < 0 or lo[1] < 0 or hi[0] > self.tank_width or hi[1] > self.tank_height:
+            raise ValueError("fluid block must lie inside the tank")
+        _set(self, "lower", lo)
+        _set(self, "upper", hi)
+
+
+@dataclass(frozen=True)
 class Scene:
     bodies: tuple[Body, ...]
     gravity: Vec = (0.0, 0.0, 0.0)
@@ -143,13 +175,14 @@ class Scene:
     linear_drag: float = 0.0
     walls: tuple[Wall, ...] = ()
     contact: ContactModel | None = None
+    fluid: FluidBlock | None = None
     dim: int = 3
     planar: bool = False
     meta: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
-        if not self.bodies:
-            raise ValueError("scene.bodies must hold at least one body")
+        if not self.bodies and self.fluid is None:
+            raise ValueError("scene.bodies must hold at least one body (or the scene a fluid)")
         _set(self, "gravity", _vec("scene.gravity", self.gravity))
         _set(self, "linear_drag", _nonnegative("scene.linear_drag", self.linear_drag))
         if self.dim not in (2, 3):
@@ -178,6 +211,8 @@ class Scene:
             out.add("contacts")
         if self.walls:
             out.add("walls")
+        if self.fluid is not None:
+            out |= {"fluid", "walls"}
         return out
 
     def stays_in_xz_plane(self) -> bool:

@@ -8,18 +8,22 @@ from __future__ import annotations
 
 import numpy as np
 
-# the 13 neighbour offsets of a 3D cell with a positive first non-zero component, plus the
-# cell itself: every unordered pair of neighbouring cells is visited once
-_OFFSETS = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)
-                     if (a, b, c) > (0, 0, 0)] + [(0, 0, 0)])
+# the forward neighbour offsets of a cell (13 in 3D, 4 in 2D: a positive first non-zero
+# component), plus the cell itself: every unordered pair of neighbouring cells is visited once
+_OFFSETS = {3: np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)
+                         if (a, b, c) > (0, 0, 0)] + [(0, 0, 0)]),
+            2: np.array([(a, b, 0) for a in (-1, 0, 1) for b in (-1, 0, 1)
+                         if (a, b) > (0, 0)] + [(0, 0, 0)])}
 
 
 def grid_pairs(x: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """Candidate pairs (i < j per cell) of points closer than `cell` (and some farther):
+    """Candidate pairs of 2D or 3D points closer than `cell` (and some farther), each once:
     points are sorted by cell id, and each point meets the points of its own cell and of the
     13 forward neighbour cells. O(N log N) for the sort, O(N) for the rest at bounded density.
     """
-    n = len(x)
+    n, dim = x.shape
+    if dim == 2:
+        x = np.column_stack([x, np.zeros(n)])
     keys = np.floor(x / cell).astype(np.int64)
     keys -= keys.min(axis=0) - 1  # >= 1: neighbours at -1 stay >= 0
     dims = keys.max(axis=0) + 2
@@ -27,7 +31,7 @@ def grid_pairs(x: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(cid, kind="stable")
     sorted_cid = cid[order]
     firsts, seconds = [], []
-    for off in _OFFSETS:
+    for off in _OFFSETS[dim]:
         nb = ((keys[:, 0] + off[0]) * dims[1] + keys[:, 1] + off[1]) * dims[2] + keys[:, 2] \
             + off[2]
         start = np.searchsorted(sorted_cid, nb, side="left")
