@@ -14,41 +14,68 @@ _OFFSETS = {3: np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c
                          if (a, b, c) > (0, 0, 0)] + [(0, 0, 0)]),
             2: np.array([(a, b, 0) for a in (-1, 0, 1) for b in (-1, 0, 1)
                          if (a, b) > (0, 0)] + [(0, 0, 0)])}
+_FULL = {3: np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)]),
+         2: np.array([(a, b, 0) for a in (-1, 0, 1) for b in (-1, 0, 1)])}
+
+
+def _pad3(x):
+    return x if x.shape[1] == 3 else np.column_stack([x, np.zeros(len(x))])
+
+
+def _cell_keys(x, cell, origin):
+    return np.floor((_pad3(x) - origin) / cell).astype(np.int64) + 1  # >= 1 for -1 offsets
+
+
+def _pairs_by_cells(query_keys, target_keys, offsets, dims):
+    """(query index, target index) for every target point in the cells at `offsets` from each
+    query point's cell: targets sorted by cell id, ranges found with searchsorted, expanded
+    with repeat (no Python loop over points)."""
+    def cell_id(keys):
+        return (keys[:, 0] * dims[1] + keys[:, 1]) * dims[2] + keys[:, 2]
+    order = np.argsort(cell_id(target_keys), kind="stable")
+    sorted_cid = cell_id(target_keys)[order]
+    firsts, seconds = [], []
+    for off in offsets:
+        nb = cell_id(query_keys + off)
+        start = np.searchsorted(sorted_cid, nb, side="left")
+        counts = np.searchsorted(sorted_cid, nb, side="right") - start
+        total = int(counts.sum())
+        if total:
+            i = np.repeat(np.arange(len(query_keys)), counts)
+            ranges = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+            firsts.append(i)
+            seconds.append(order[np.repeat(start, counts) + ranges])
+        else:
+            firsts.append(np.zeros(0, int))
+            seconds.append(np.zeros(0, int))
+    return firsts, seconds
 
 
 def grid_pairs(x: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
     """Candidate pairs of 2D or 3D points closer than `cell` (and some farther), each once:
     points are sorted by cell id, and each point meets the points of its own cell and of the
-    13 forward neighbour cells. O(N log N) for the sort, O(N) for the rest at bounded density.
+    forward neighbour cells. O(N log N) for the sort, O(N) for the rest at bounded density.
     """
-    n, dim = x.shape
-    if dim == 2:
-        x = np.column_stack([x, np.zeros(n)])
-    keys = np.floor(x / cell).astype(np.int64)
-    keys -= keys.min(axis=0) - 1  # >= 1: neighbours at -1 stay >= 0
+    dim = x.shape[1]
+    origin = _pad3(x).min(axis=0)
+    keys = _cell_keys(x, cell, origin)
     dims = keys.max(axis=0) + 2
-    cid = (keys[:, 0] * dims[1] + keys[:, 1]) * dims[2] + keys[:, 2]
-    order = np.argsort(cid, kind="stable")
-    sorted_cid = cid[order]
-    firsts, seconds = [], []
-    for off in _OFFSETS[dim]:
-        nb = ((keys[:, 0] + off[0]) * dims[1] + keys[:, 1] + off[1]) * dims[2] + keys[:, 2] \
-            + off[2]
-        start = np.searchsorted(sorted_cid, nb, side="left")
-        counts = np.searchsorted(sorted_cid, nb, side="right") - start
-        total = int(counts.sum())
-        if total == 0:
-            continue
-        i = np.repeat(np.arange(n), counts)
-        ranges = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
-        j = order[np.repeat(start, counts) + ranges]
-        if not off.any():  # own cell: each unordered pair once, no self pairs
-            keep = i < j
-            i, j = i[keep], j[keep]
-        firsts.append(i)
-        seconds.append(j)
-    if not firsts:
-        return np.zeros(0, int), np.zeros(0, int)
+    firsts, seconds = _pairs_by_cells(keys, keys, _OFFSETS[dim], dims)
+    own_i, own_j = firsts[-1], seconds[-1]  # the last offset is the cell itself
+    keep = own_i < own_j
+    firsts[-1], seconds[-1] = own_i[keep], own_j[keep]
+    return np.concatenate(firsts), np.concatenate(seconds)
+
+
+def grid_cross_pairs(a: np.ndarray, b: np.ndarray, cell: float):
+    """Candidate pairs (i in a, j in b) closer than `cell`: each point of a meets the points
+    of b in its own and all neighbouring cells."""
+    dim = a.shape[1]
+    both = np.concatenate([_pad3(a), _pad3(b)])
+    origin = both.min(axis=0)
+    ka, kb = _cell_keys(a, cell, origin), _cell_keys(b, cell, origin)
+    dims = np.maximum(ka.max(axis=0), kb.max(axis=0)) + 2
+    firsts, seconds = _pairs_by_cells(ka, kb, _FULL[dim], dims)
     return np.concatenate(firsts), np.concatenate(seconds)
 
 

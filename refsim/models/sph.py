@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .collisions import grid_pairs
+from .collisions import grid_cross_pairs, grid_pairs
 
 GAMMA = 7.0
 
@@ -60,17 +60,14 @@ class WCSPH:
 
     def pairs(self, x):
         """Fluid-fluid and fluid-wall pairs within 2h: (i, j, x_i - x_j, r); i is always a
-        fluid particle, j >= n_fluid is a wall particle."""
-        n = len(x)
-        both = np.concatenate([x, self.walls])
-        i, j = grid_pairs(both, 2.0 * self.h)
-        flip = i >= n  # put the fluid particle first
-        i, j = np.where(flip, j, i), np.where(flip, i, j)
-        keep = i < n
-        i, j = i[keep], j[keep]
-        d = both[i] - both[j]
+        fluid particle, j >= n_fluid is a wall particle (wall-wall pairs are never formed)."""
+        n, reach = len(x), 2.0 * self.h
+        i, j = grid_pairs(x, reach)
+        iw, jw = grid_cross_pairs(x, self.walls, reach)
+        i, j = np.concatenate([i, iw]), np.concatenate([j, jw + n])
+        d = x[i] - np.concatenate([x, self.walls])[j]
         r = np.sqrt(np.einsum("pk,pk->p", d, d))
-        near = r < 2.0 * self.h
+        near = r < reach
         return i[near], j[near], d[near], r[near]
 
     def wall_pressure(self, n, rho, p, i, j, d, r):
