@@ -62,7 +62,8 @@ class DamBreak(Case):
     }
     variants = {"res20": {}, "res40": {"resolution": 40},
                 "hydrostatic": {"layout": "hydrostatic", "t_end_T": 20.0}}
-    quick_variants = ("res20", "hydrostatic")
+    quick_variants = ("res20",)
+    default_variants = ("res20", "hydrostatic")  # res40 (minutes) is run by name
     divergence_factor = 10.0
 
     # -- geometry ----------------------------------------------------------------------------

@@ -60,6 +60,7 @@ class Case:
     params: dict = {}
     variants: dict = {"default": {}}
     quick_variants: tuple = ("default",)
+    default_variants: tuple = ()  # what a plain `refsim run` covers; () means every variant
     divergence_factor = 100.0  # |E - E0| beyond this many energy scales: diverged
     samples = 400  # about this many observations per run (every step when fewer steps)
 
