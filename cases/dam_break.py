@@ -21,8 +21,10 @@ its largest change over the potential energy released, M g a / 2... scaled by th
 potential energy M g H / 2).
 
 Sub-case `hydrostatic`: a closed tank (width a, depth H = a), no release. After settling (the
-second half of the run) the bed pressure must be within 5 % of rho0 g H (err_* are
-|p_bed / (rho0 g H) - 1|), velocities near zero and the density drift under 1 %.
+second half of the run) the bed pressure, averaged over that half (WCSPH pressure carries
+acoustic noise, reported as `bed_pressure_noise`, its standard deviation / rho0 g H), must be
+within 5 % of rho0 g H (err_* = |<p_bed> / (rho0 g H) - 1|), velocities near zero
+(`velocity_max`, / sqrt(g H)) and the density drift under 1 % (`density_drift`).
 """
 from __future__ import annotations
 
@@ -148,9 +150,9 @@ class DamBreak(Case):
         return {}
 
     def error(self, p, observed, reference):
-        if p["layout"] == "hydrostatic":
+        if p["layout"] == "hydrostatic":  # the settled (time-averaged) bed pressure
             T = observed["T"]
-            return np.abs(observed["bed_pressure"][T >= 0.5 * T[-1]] - 1.0)
+            return np.array([abs(np.mean(observed["bed_pressure"][T >= 0.5 * T[-1]]) - 1.0)])
         shift, dz = self.fit(p, observed["T"], observed["front"])
         return np.abs(dz)
 
@@ -191,7 +193,9 @@ class DamBreak(Case):
         else:
             late = observed["T"] >= 0.5 * observed["T"][-1]
             speed = np.linalg.norm(obs["v"][late], axis=-1)
-            out.update(velocity_max=float(speed.max() / np.sqrt(p["g"] * self.depth(p))),
+            bed = observed["bed_pressure"][late]
+            out.update(bed_pressure_noise=float(np.std(bed)),
+                       velocity_max=float(speed.max() / np.sqrt(p["g"] * self.depth(p))),
                        density_drift=float(abs(np.mean(obs["rho"][-1]) / np.mean(
                            obs["rho"][0]) - 1.0)))
         return out

@@ -238,8 +238,10 @@ def _accuracy_metrics(case, p, stacked):
     ref_energy = (case.reference_energy(p, stacked["t"]) if hasattr(case, "reference_energy")
                   else None)
     if energy is not None:
-        out["energy_drift"] = energy_drift(energy, energy[0] if ref_energy is None
-                                           else ref_energy, case.energy_scale(p))
+        ref = np.full(len(energy), energy[0]) if ref_energy is None else ref_energy
+        mask = (case.energy_mask(p, stacked["t"]) if hasattr(case, "energy_mask")
+                else np.ones(len(energy), bool))
+        out["energy_drift"] = energy_drift(energy[mask], ref[mask], case.energy_scale(p))
     if "constraint" in observed:
         out["constraint_drift"] = float(np.max(np.abs(observed["constraint"])))
     out.update(case.extra_metrics(p, stacked, observed, reference))
