@@ -41,7 +41,9 @@ INCH = 0.0254
 
 def martin_moyce():
     """(T, Z) of the surge front from the data file."""
-    table = np.loadtxt(DATA, delimiter=",", comments="#", skiprows=7)
+    rows = [line for line in DATA.read_text().splitlines() if line and not line.startswith("#")]
+    assert rows[0].replace(" ", "") == "T,Z", f"unexpected header in {DATA.name}: {rows[0]}"
+    table = np.array([[float(v) for v in line.split(",")] for line in rows[1:]])
     return table[:, 0], table[:, 1]
 
 
