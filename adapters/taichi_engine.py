@@ -15,6 +15,23 @@ and hinged rods in generalized coordinates (theta'' = -(g/L) sin theta - (b/m) t
 angle mapped to the bob with refsim's hinge frame). Each body's motion is independent of the
 others', so a step is a serial loop over bodies.
 
+Colliding spheres (features "contacts", "walls"; `SphereSim`, symplectic_euler only) run in a
+third kernel of the same shape. Per step, in this order: kick-drift as above (gravity, drag,
+springs to anchors); a uniform grid over the bounding box (cell >= 2 r_max, counting sort of
+the ids, a half stencil of neighbour cells so each pair is met once); contacts where
+|d| <= (r_a + r_b)(1 + 1e-9) and sphere-wall gaps <= 1e-9 r (the slop catches touching
+balls whose positions differ from touching by round-off, as in the cradle); each pair's
+normal at the time of impact: backed up along its relative path over the last drift to
+|d| = r_a + r_b (engine variant `overlap_normal`: the centre line of the overlapped pose, as
+most engines); Gauss-Seidel passes over the contact list, each approaching contact getting
+Newton's impulse J_n = -(1 + e) u.n / (1/m_a + 1/m_b) and Coulomb friction by Guendelman,
+Bridson & Fedkiw 2003 (stick if the impulse stopping the slip is within mu J_n, else slide
+with mu J_n), until a pass finds nothing approaching (at most 100 passes); then one pass of
+positional projection out of overlap, split by inverse mass (velocities untouched). Every
+impulse is a full binary impact, so at e = 1, mu = 0 energy is conserved to round-off
+however many contacts a step holds, and the cradle's impacts propagate as the ideal sequence.
+Walls' impulses are summed and observed as "wall_impulse".
+
 ENGINE_NOTES.md facts applied (taichi 1.7.4), all reported in `Sim.settings()`:
 - on import taichi writes to ~/.cache/taichi and tries a network version check:
   TI_SKIP_VERSION_CHECK=ON is set before the import and the offline kernel cache is pointed at
@@ -53,6 +70,12 @@ from refsim.models.joints import cartesian_to_hinge, hinge_frame, hinge_to_carte
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4")
 VARIANTS = ("", "launch_per_step")
+CONTACT_VARIANTS = VARIANTS + ("overlap_normal",)
+MAX_PASSES = 100  # Gauss-Seidel impulse passes per step, at most
+APPROACH_TOL = 1e-12  # approaching: u.n < -APPROACH_TOL (|u_a| + |u_b|)
+CONTACT_SLOP = 1e-9  # in contact: gap <= CONTACT_SLOP (r_a + r_b) (catches round-off touching)
+CELLS_PER_SPHERE = 8  # grid array size 8 N + 64 (the cell size grows past 2 r_max to fit)
+CONTACTS_PER_SPHERE = 16  # contact list size 16 N + 64; more is reported as a failure
 THREADS = 1
 OFFLINE_CACHE = False
 CACHE_DIR = os.path.join(tempfile.gettempdir(),
@@ -89,7 +112,9 @@ def _runtime() -> dict:
                 fast_math=False, offline_cache=OFFLINE_CACHE, offline_cache_file_path=CACHE_DIR,
                 log_level="warn")
     init_s = time.perf_counter() - t0
-    _RUNTIME.update(ti=ti, init_s=init_s, lib=_define(ti), kernels={}, compiled=set(),
+    lib = _define(ti)
+    lib.update(_define_spheres(ti, lib))
+    _RUNTIME.update(ti=ti, init_s=init_s, lib=lib, kernels={}, compiled=set(),
                     launch_us={})
     return _RUNTIME
 
@@ -202,12 +227,302 @@ def _define(ti) -> dict:
             "advance_kernel": advance_kernel, "accel_kernel": accel_kernel}
 
 
+def _define_spheres(ti, lib) -> dict:
+    """Colliding spheres: the contact pack type and one kernel whose serialised time loop does,
+    per step: kick-drift (`particle_accel`: gravity, drag, springs to anchors), the grid broad
+    phase, contact normals, Gauss-Seidel impulses (Newton restitution, Guendelman friction),
+    then positional projection. A contact is (a, b, n) with n the unit normal from a to b;
+    a = -1 - k stands for wall k (b is then the sphere)."""
+    f64, i32 = ti.f64, ti.i32
+    vec3, ivec3 = lib["vec3"], ti.types.vector(3, i32)
+    nd_vec3 = ti.types.ndarray(dtype=vec3, ndim=1)
+    nd_f64 = ti.types.ndarray(dtype=f64, ndim=1)
+    nd_i32 = ti.types.ndarray(dtype=i32, ndim=1)
+    nd_i64 = ti.types.ndarray(dtype=ti.i64, ndim=1)
+    particle_accel, particles_t = lib["systems"]["particles"][0], lib["systems"]["particles"][2]
+    contacts_t = ti.types.argpack(
+        radius=nd_f64, inv_inertia=nd_f64, wall_point=nd_vec3, wall_normal=nd_vec3,
+        n_walls=i32, restitution=f64, friction=f64, slop=f64, approach_tol=f64, cell_min=f64,
+        max_passes=i32, toi_normal=i32, cell_count=nd_i32, cell_start=nd_i32, cell_of=nd_i32,
+        order=nd_i32, sorted_x=nd_vec3, contact_a=nd_i32, contact_b=nd_i32, contact_n=nd_vec3,
+        wall_impulse=nd_vec3, stats=nd_i64, depth_max=nd_f64)
+
+    # -- broad phase: uniform grid, counting sort ----------------------------------------------
+    @ti.func
+    def grid_dims(ext, cell_min, cap):
+        """Cell size >= cell_min, enlarged until the grid over the bounding box fits `cap`."""
+        c = cell_min
+        nf = ti.floor(ext / c) + 1.0
+        while nf[0] * nf[1] * nf[2] > cap:
+            c *= ti.max(1.05, ti.pow(nf[0] * nf[1] * nf[2] / cap, 1.0 / 3.0))
+            nf = ti.floor(ext / c) + 1.0
+        return c, ti.cast(nf, i32)
+
+    @ti.func
+    def cell_coords(xi, lo, c, dims):
+        return ti.min(ti.cast(ti.floor((xi - lo) / c), i32), dims - 1)
+
+    @ti.func
+    def build_grid(x: ti.template(), C: ti.template()):
+        """Bounding box, cell size, then a serial counting sort: C.order lists the spheres
+        cell by cell (index order within a cell), C.sorted_x their positions; cell k holds
+        C.order[start[k]:count[k]].
+        ok = 0 when a coordinate is not finite (no grid, no contacts)."""
+        lo, hi = vec3(1e308, 1e308, 1e308), vec3(-1e308, -1e308, -1e308)
+        ok = 1
+        for i in range(x.shape[0]):
+            lo, hi = ti.min(lo, x[i]), ti.max(hi, x[i])  # min/max may skip a nan: test each
+            if not (ti.abs(x[i]) < 1e300).all():  # inf or nan
+                ok = 0
+        ext = hi - lo
+        for k in ti.static(range(3)):
+            if not ext[k] < 1e300:
+                ok = 0
+        c, dims = C.cell_min, ivec3(1, 1, 1)
+        if ok:
+            c, dims = grid_dims(ext, C.cell_min, ti.cast(C.cell_count.shape[0], f64))
+            total = dims[0] * dims[1] * dims[2]
+            for k in range(total):
+                C.cell_count[k] = 0
+            for i in range(x.shape[0]):
+                q = cell_coords(x[i], lo, c, dims)
+                cell = (q[2] * dims[1] + q[1]) * dims[0] + q[0]
+                C.cell_of[i] = cell
+                C.cell_count[cell] += 1
+            running = 0
+            for k in range(total):
+                C.cell_start[k] = running
+                running += C.cell_count[k]
+                C.cell_count[k] = C.cell_start[k]  # now the fill pointer, then the cell's end
+            for i in range(x.shape[0]):
+                cell = C.cell_of[i]
+                C.order[C.cell_count[cell]] = i
+                C.sorted_x[C.cell_count[cell]] = x[i]
+                C.cell_count[cell] += 1
+        return lo, c, dims, ok
+
+    # -- narrow phase: contact normals ----------------------------------------------------------
+    @ti.func
+    def pair_normal(d, dd, R, rel, h, toi: ti.i32):
+        """Unit normal from a to b (d = x_b - x_a, dd = |d|^2, R = r_a + r_b). With `toi`, the
+        normal at the moment of touching on the straight relative path of the last drift,
+        d - s rel with |d - s rel| = R (s > 0 in the past), when |s| <= h; else the centre
+        line. The root is taken in its cancellation-free form."""
+        n = vec3(1.0, 0.0, 0.0)
+        if dd > 0.0:
+            n = d / ti.sqrt(dd)
+        if toi:
+            ww = rel.dot(rel)
+            if ww > 0.0:
+                dw = d.dot(rel)
+                disc = dw * dw - ww * (dd - R * R)
+                if disc >= 0.0:
+                    sq = ti.sqrt(disc)
+                    s = 0.0
+                    if dw < 0.0:
+                        s = (R * R - dd) / (sq - dw)
+                    else:
+                        s = (dw + sq) / ww
+                    if ti.abs(s) <= h:
+                        m = d - s * rel
+                        n = m / m.norm()
+        return n
+
+    @ti.func
+    def add_contact(C: ti.template(), nc, a, b, n):
+        out = nc
+        if nc < C.contact_a.shape[0]:
+            C.contact_a[nc], C.contact_b[nc], C.contact_n[nc] = a, b, n
+            out = nc + 1
+        else:
+            C.stats[0] += 1  # dropped: reported as a failure
+        return out
+
+    @ti.func
+    def wall_contacts(x: ti.template(), C: ti.template(), i, nc):
+        out = nc
+        ri = C.radius[i]
+        for k in range(C.n_walls):
+            nw = C.wall_normal[k]
+            if (x[i] - C.wall_point[k]).dot(nw) - ri <= C.slop * ri:
+                out = add_contact(C, out, -1 - k, i, nw)
+        return out
+
+    @ti.func
+    def find_contacts(x: ti.template(), v: ti.template(), C: ti.template(), h):
+        """Contacts in a fixed order: sphere by sphere in cell order, its walls, then its
+        partners in a half stencil of neighbouring cells, so each pair is met once. Cells of
+        a row are contiguous in C.order, so the half stencil is five ranges: the rest of the
+        own row up to cell x+1, row y+1 (cells x-1..x+1), and rows y-1..y+1 of layer z+1.
+        A pair is in contact when |d| <= (r_a + r_b)(1 + slop), a wall when the gap <= slop r."""
+        lo, c, dims, ok = build_grid(x, C)
+        nc = 0
+        if ok:
+            for k in range(x.shape[0]):
+                i = C.order[k]
+                nc = wall_contacts(x, C, i, nc)
+                q = cell_coords(C.sorted_x[k], lo, c, dims)
+                x0, x1 = ti.max(q[0] - 1, 0), ti.min(q[0] + 1, dims[0] - 1)
+                row = (q[2] * dims[1] + q[1]) * dims[0]
+                nc = range_pairs(v, C, h, k, k + 1, C.cell_count[row + x1], nc)
+                if q[1] + 1 < dims[1]:
+                    nc = row_pairs(v, C, h, k, row + dims[0], x0, x1, nc)
+                if q[2] + 1 < dims[2]:
+                    for dy in range(-1, 2):
+                        if 0 <= q[1] + dy < dims[1]:
+                            nc = row_pairs(v, C, h, k, ((q[2] + 1) * dims[1] + q[1] + dy)
+                                           * dims[0], x0, x1, nc)
+        else:
+            C.stats[1] += 1
+        return nc
+
+    @ti.func
+    def row_pairs(v: ti.template(), C: ti.template(), h, k, row, x0, x1, nc):
+        return range_pairs(v, C, h, k, C.cell_start[row + x0], C.cell_count[row + x1], nc)
+
+    @ti.func
+    def range_pairs(v: ti.template(), C: ti.template(), h, k, s0, s1, nc):
+        """Sphere C.order[k] against C.order[s0:s1], on the cell-sorted positions; a contact
+        is stored with a < b and its normal from a to b."""
+        out = nc
+        i, xi = C.order[k], C.sorted_x[k]
+        for s in range(s0, s1):
+            j = C.order[s]
+            d = C.sorted_x[s] - xi
+            R = C.radius[i] + C.radius[j]
+            dd = d.dot(d)
+            reach = R * (1.0 + C.slop)
+            if dd <= reach * reach:
+                a, b = i, j
+                if j < i:
+                    a, b, d = j, i, -d
+                out = add_contact(C, out, a, b, pair_normal(d, dd, R, v[b] - v[a], h,
+                                                            C.toi_normal))
+        return out
+
+    # -- impulses -------------------------------------------------------------------------------
+    @ti.func
+    def contact_impulse(u, n, kn, kt, e, mu):
+        """Impulse on b for a relative contact velocity u (b minus a), normal n. Sphere
+        contacts decouple: du = kn J_n n + kt J_t (kn = 1/m_a + 1/m_b, kt = kn + r_a^2/I_a +
+        r_b^2/I_b). Newton: J_n = -(1 + e) u.n / kn. Coulomb (Guendelman 2003): stick with
+        J_t = -u_t / kt when |J_t| <= mu J_n, else slide with mu J_n against u_t."""
+        un = u.dot(n)
+        jn = -(1.0 + e) * un / kn
+        J = jn * n
+        if mu > 0.0:
+            ut = u - un * n
+            jt = -ut / kt
+            if jt.norm() <= mu * jn:
+                J += jt
+            else:
+                J -= (mu * jn / ut.norm()) * ut
+        return J
+
+    @ti.func
+    def apply_contact(v: ti.template(), w: ti.template(), P: ti.template(), C: ti.template(), c):
+        """One Gauss-Seidel update of contact c when it approaches (u.n below -approach_tol
+        times the contact points' speeds); returns 1 if an impulse was applied."""
+        a, b, n = C.contact_a[c], C.contact_b[c], C.contact_n[c]
+        rb = C.radius[b]
+        ub = v[b] - rb * w[b].cross(n)
+        ra, inv_ma, inv_ia, ua = 0.0, 0.0, 0.0, vec3(0.0, 0.0, 0.0)
+        if a >= 0:
+            ra, inv_ma, inv_ia = C.radius[a], P.inv_m[a], C.inv_inertia[a]
+            ua = v[a] + ra * w[a].cross(n)
+        u = ub - ua
+        hit = 0
+        if u.dot(n) < -C.approach_tol * (ub.norm() + ua.norm()):
+            inv_mb, inv_ib = P.inv_m[b], C.inv_inertia[b]
+            kn = inv_ma + inv_mb
+            J = contact_impulse(u, n, kn, kn + ra * ra * inv_ia + rb * rb * inv_ib,
+                                C.restitution, C.friction)
+            v[b] += inv_mb * J
+            w[b] -= (rb * inv_ib) * n.cross(J)
+            if a >= 0:
+                v[a] -= inv_ma * J
+                w[a] -= (ra * inv_ia) * n.cross(J)
+            else:
+                C.wall_impulse[0] += J
+            hit = 1
+        return hit
+
+    @ti.func
+    def resolve(v: ti.template(), w: ti.template(), P: ti.template(), C: ti.template(), nc):
+        """Gauss-Seidel passes over the contact list until a pass finds no approaching
+        contact, at most C.max_passes. Returns (passes, impulses, still approaching)."""
+        passes, impulses, active = 0, 0, 0
+        for _ in range(C.max_passes):
+            active = 0
+            for c in range(nc):
+                active += apply_contact(v, w, P, C, c)
+            passes += 1
+            impulses += active
+            if active == 0:
+                break
+        return passes, impulses, active
+
+    @ti.func
+    def project(x: ti.template(), P: ti.template(), C: ti.template(), nc):
+        """One pass, contact by contact: overlapping spheres are pushed apart along the
+        current centre line, the depth split by inverse mass; a sphere in a wall is moved out
+        along the wall normal. Velocities are untouched. C.depth_max keeps the deepest
+        overlap met (before its projection)."""
+        for c in range(nc):
+            a, b = C.contact_a[c], C.contact_b[c]
+            if a >= 0:
+                d = x[b] - x[a]
+                dist = d.norm()
+                depth = C.radius[a] + C.radius[b] - dist
+                if depth > 0.0 and dist > 0.0:
+                    C.depth_max[0] = ti.max(C.depth_max[0], depth)
+                    share = P.inv_m[a] / (P.inv_m[a] + P.inv_m[b])
+                    x[a] -= (depth * share / dist) * d
+                    x[b] += (depth * (1.0 - share) / dist) * d
+            else:
+                nw = C.wall_normal[-1 - a]
+                gap = (x[b] - C.wall_point[-1 - a]).dot(nw) - C.radius[b]
+                if gap < 0.0:
+                    C.depth_max[0] = ti.max(C.depth_max[0], -gap)
+                    x[b] -= gap * nw
+
+    @ti.func
+    def record(C: ti.template(), nc, passes, impulses, active):
+        """stats: 0 dropped contacts, 1 steps without a grid (non-finite), 2 most passes in a
+        step, 3 steps ending at the pass cap with a contact still approaching, 4 impulses,
+        5 contacts found, 6 steps."""
+        C.stats[2] = ti.max(C.stats[2], passes)
+        if active > 0:
+            C.stats[3] += 1
+        C.stats[4] += impulses
+        C.stats[5] += nc
+        C.stats[6] += 1
+
+    @ti.kernel
+    def advance_spheres(x: nd_vec3, v: nd_vec3, w: nd_vec3, P: particles_t, C: contacts_t,
+                        h: f64, n: ti.i32):
+        ti.loop_config(serialize=True)  # the time loop: serial, and so is everything inside
+        for _ in range(n):
+            for i in range(x.shape[0]):  # kick-drift, refsim's symplectic_euler
+                v[i] = v[i] + h * particle_accel(P, i, x[i], v[i])
+                x[i] = x[i] + h * v[i]
+            nc = find_contacts(x, v, C, h)
+            passes, impulses, active = resolve(v, w, P, C, nc)
+            project(x, P, C, nc)
+            record(C, nc, passes, impulses, active)
+
+    return {"contacts_t": contacts_t, "advance_spheres": advance_spheres}
+
+
 def _kernels(system: str, integrator: str):
     """(start, advance) kernels for a system and stepper, made once per process."""
     rt = _runtime()
     key = (system, integrator)
     if key not in rt["kernels"]:
         lib = rt["lib"]
+        if system == "spheres":  # one kernel (kick-drift + contacts), no start kernel
+            rt["kernels"][key] = (None, lib["advance_spheres"])
+            return rt["kernels"][key]
         accel, state_t, pack_t = lib["systems"][system]
         rt["kernels"][key] = (lib["accel_kernel"](accel, state_t, pack_t),
                               lib["advance_kernel"](lib["steppers"][integrator], accel, state_t,
@@ -236,7 +551,7 @@ def _launch_overhead_us(advance, args) -> float:
 class TaichiEngine(Engine):
     name = "taichi"
     package = "taichi"
-    capabilities = frozenset({"gravity", "springs", "joints", "drag"})
+    capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"})
     dims = (2, 3)
     integrators = INTEGRATORS
 
@@ -248,7 +563,7 @@ class TaichiEngine(Engine):
         return True
 
     def variants(self, scene):
-        return VARIANTS
+        return CONTACT_VARIANTS if _has_contacts(scene) else VARIANTS
 
     def supports(self, scene, integrator=None):
         reason = super().supports(scene, integrator)
@@ -257,6 +572,8 @@ class TaichiEngine(Engine):
         if any(s.other is not None for s in scene.springs):
             return ("taichi adapter: springs between two bodies are not modelled "
                     "(only springs to fixed anchors)")
+        if _has_contacts(scene):
+            return _contact_refusal(scene, integrator)
         if not scene.joints:
             return None
         jointed = {j.body for j in scene.joints}
@@ -273,48 +590,70 @@ class TaichiEngine(Engine):
         if integrator not in INTEGRATORS:
             raise ValueError(f"taichi integrator must be one of {list(INTEGRATORS)}, "
                              f"got {integrator!r}")
-        if variant not in VARIANTS:
-            raise ValueError(f"taichi variant must be one of {list(VARIANTS)}, got {variant!r}")
+        if variant not in self.variants(scene):
+            raise ValueError(f"taichi variant must be one of {list(self.variants(scene))}, "
+                             f"got {variant!r}")
         reason = self.supports(scene, integrator)
         if reason:
             raise ValueError(reason)
-        cls = HingeSim if scene.joints else ParticleSim
+        cls = SphereSim if _has_contacts(scene) else HingeSim if scene.joints else ParticleSim
         return cls(scene, dt, integrator, variant)
+
+
+def _has_contacts(scene) -> bool:
+    return bool({"contacts", "walls"} & scene.features())
+
+
+def _contact_refusal(scene, integrator):
+    """Why a contact scene cannot be simulated faithfully here, or None."""
+    if scene.contact is None:
+        return "taichi adapter: walls need a contact model (scene.contact) for their restitution"
+    if scene.joints:
+        return "taichi adapter: contacts with hinged bodies are not modelled"
+    if integrator is not None and integrator != "symplectic_euler":
+        return ("taichi adapter: contact scenes step with symplectic_euler only (kick-drift, "
+                "then impulses; a multi-stage stepper would need the impact located in time)")
+    if any(b.radius <= 0 for b in scene.bodies):
+        return "taichi adapter: contacts need every body to be a sphere of radius > 0"
+    if scene.contact.friction > 0 and any(b.inertia <= 0 for b in scene.bodies):
+        return "taichi adapter: friction needs every sphere's moment of inertia > 0"
+    return None
 
 
 # ---------------------------------------------------------------------------------------------
 # Sims
 # ---------------------------------------------------------------------------------------------
 class _KernelSim(Sim):
-    """Bookkeeping shared by both systems: state ndarrays, the two kernels, timing of the
-    first (compiling) calls, stepping in-kernel or one launch per step."""
+    """Bookkeeping shared by every system: the kernel arguments (state ndarrays and argpacks,
+    everything before h and n), the kernels, timing of the first (compiling) calls, stepping
+    in-kernel or one launch per step."""
 
     system = ""
 
-    def __init__(self, dt, integrator, variant, state, pack):
+    def __init__(self, dt, integrator, variant, args):
         rt = _runtime()
         ti = rt["ti"]
         self.dt, self.integrator, self.variant, self.steps = dt, integrator, variant, 0
         self.stepper = get_integrator(integrator)
-        self.x, self.v, self.a = state
-        self.pack = pack
+        self.args = tuple(args)
         start, self.advance = _kernels(self.system, integrator)
         key = (self.system, integrator)
         self.cold = key not in rt["compiled"]
         t0 = time.perf_counter()
-        start(self.x, self.v, self.a, pack)  # a0 = a(x0, v0): Verlet's carried acceleration
-        self.advance(self.x, self.v, self.a, pack, dt, 0)  # compiles on first use
+        if start is not None:
+            start(*self.args)  # a0 = a(x0, v0): Verlet's carried acceleration
+        self.advance(*self.args, dt, 0)  # compiles on first use
         ti.sync()
         self.compile_s = time.perf_counter() - t0
         rt["compiled"].add(key)
-        self.launch_us = (_launch_overhead_us(self.advance, (self.x, self.v, self.a, pack, dt))
+        self.launch_us = (_launch_overhead_us(self.advance, (*self.args, dt))
                           if variant == "launch_per_step" else None)
 
     def step(self, n):
         n = int(n)
         if n < 0:
             raise ValueError(f"n must be >= 0, got {n}")
-        args = (self.x, self.v, self.a, self.pack, self.dt)
+        args = (*self.args, self.dt)
         if self.variant == "launch_per_step":
             for _ in range(n):
                 self.advance(*args, 1)
@@ -349,7 +688,7 @@ class _KernelSim(Sim):
         return out
 
     def close(self):
-        self.x = self.v = self.a = self.pack = None
+        self.args = ()
 
 
 class ParticleSim(_KernelSim):
@@ -363,7 +702,8 @@ class ParticleSim(_KernelSim):
         state[0].from_numpy(scene.positions)
         state[1].from_numpy(scene.velocities)
         state[2].from_numpy(np.zeros((n, 3)))
-        super().__init__(dt, integrator, variant, state, self._pack(ti, scene))
+        self.x, self.v = state[0], state[1]
+        super().__init__(dt, integrator, variant, (*state, self._pack(ti, scene)))
 
     @staticmethod
     def _pack(ti, scene):
@@ -428,7 +768,8 @@ class HingeSim(_KernelSim):
             a.from_numpy(arr)
         pack = _RUNTIME["lib"]["systems"]["hinges"][2](
             g_over_l=nd[3], drag_over_m=nd[4], velocity_dependent=int(scene.linear_drag > 0))
-        super().__init__(dt, integrator, variant, nd[:3], pack)
+        self.x, self.v = nd[0], nd[1]
+        super().__init__(dt, integrator, variant, (*nd[:3], pack))
 
     def observe(self):
         theta, omega = self.x.to_numpy(), self.v.to_numpy()
@@ -445,3 +786,142 @@ class HingeSim(_KernelSim):
                 "stages": stages + ["hinge_generalized", f"integrate:{self.integrator}"],
                 "hinge_frame": {"d": self.d.tolist(), "s": self.s.tolist()},
                 "constraint": "exact by construction (rod length errors reported as 0)"}
+
+
+class SphereSim(_KernelSim):
+    """Spheres with contacts (and walls): one kernel per `step(n)`, its time loop serialised.
+    Per step: kick-drift (v += h a(x, v); x += h v, refsim's `symplectic_euler`: gravity,
+    drag, springs to anchors), then contacts on the drifted positions: broad phase on a
+    uniform grid, contact normals, Gauss-Seidel impulse passes, positional projection."""
+
+    system = "spheres"
+
+    def __init__(self, scene, dt, integrator, variant):
+        ti = _runtime()["ti"]
+        self.scene = scene
+        self.x, self.v, self.w = (_ndarray(ti, a) for a in (
+            scene.positions, scene.velocities, scene.angular_velocities))
+        self.nd = self._contact_arrays(ti, scene)
+        lib = _RUNTIME["lib"]
+        scalars = {"n_walls": len(scene.walls), "restitution": scene.contact.restitution,
+                   "friction": scene.contact.friction, "slop": CONTACT_SLOP,
+                   "approach_tol": APPROACH_TOL, "cell_min": self.cell_min(scene),
+                   "max_passes": MAX_PASSES, "toi_normal": int(variant != "overlap_normal")}
+        contacts = lib["contacts_t"](**self.nd, **scalars)
+        particles = ParticleSim._pack(ti, scene)
+        super().__init__(dt, integrator, variant, (self.x, self.v, self.w, particles, contacts))
+
+    @staticmethod
+    def cell_min(scene) -> float:
+        """Smallest grid cell: the largest contact reach, 2 r_max (1 + slop), rounded up."""
+        return 2.0 * float(scene.radii.max()) * (1.0 + 2.0 * CONTACT_SLOP)
+
+    @staticmethod
+    def _contact_arrays(ti, scene) -> dict:
+        """Per-sphere data (radius, 1/I from the scene: never recomputed), walls (one dummy
+        when none), grid and contact-list scratch, wall impulse and counters."""
+        n, walls = len(scene.bodies), scene.walls
+        inertia = scene.inertias
+        cells, cap = CELLS_PER_SPHERE * n + 64, CONTACTS_PER_SPHERE * n + 64
+        arrays = {"radius": scene.radii,
+                  "inv_inertia": np.divide(1.0, inertia, out=np.zeros(n), where=inertia > 0),
+                  "wall_point": np.array([w.point for w in walls] or [(0.0, 0.0, 0.0)]),
+                  "wall_normal": np.array([w.normal for w in walls] or [(0.0, 0.0, 1.0)]),
+                  "cell_count": np.zeros(cells, np.int32), "cell_start": np.zeros(cells, np.int32),
+                  "cell_of": np.zeros(n, np.int32), "order": np.zeros(n, np.int32),
+                  "sorted_x": np.zeros((n, 3)),
+                  "contact_a": np.zeros(cap, np.int32), "contact_b": np.zeros(cap, np.int32),
+                  "contact_n": np.zeros((cap, 3)), "wall_impulse": np.zeros((1, 3)),
+                  "stats": np.zeros(len(STATS), np.int64), "depth_max": np.zeros(1)}
+        return {key: _ndarray(ti, arr) for key, arr in arrays.items()}
+
+    def step(self, n):
+        super().step(n)
+        stats = self.contact_stats()
+        if stats["dropped_contacts"]:
+            self.failure = (f"contact list full: {stats['dropped_contacts']} contacts dropped "
+                            f"(capacity {self.nd['contact_a'].shape[0]}) by t={self.t:.6g}")
+        elif stats["steps_without_grid"]:
+            self.failure = f"non-finite positions: contacts skipped by t={self.t:.6g}"
+
+    def contact_stats(self) -> dict:
+        """Counters since build (see STATS) and the deepest overlap met before projection."""
+        out = dict(zip(STATS, (int(c) for c in self.nd["stats"].to_numpy())))
+        out["depth_max"] = float(self.nd["depth_max"].to_numpy()[0])
+        return out
+
+    def observe(self):
+        return {"t": self.t, "x": self.x.to_numpy().reshape(-1, 3),
+                "v": self.v.to_numpy().reshape(-1, 3), "w": self.w.to_numpy().reshape(-1, 3),
+                "wall_impulse": self.nd["wall_impulse"].to_numpy().reshape(3)}
+
+    def settings(self):
+        contact = self.scene.contact
+        normal = ("centre line at detection (the penetrating configuration), as most engines"
+                  if self.variant == "overlap_normal" else
+                  "at the time of impact on the straight relative path of the last drift "
+                  "(|d - s v_rel| = r_a + r_b, |s| <= dt), else the centre line")
+        stages = [name for name, on in (("gravity", any(self.scene.gravity)),
+                                        ("drag", self.scene.linear_drag > 0),
+                                        ("springs", bool(self.scene.springs))) if on]
+        integ = {**self.base_settings()["integrator"],
+                 "note": "kick-drift between impacts; impulses after the drift"}
+        return {**self.base_settings(), "integrator": integ,
+                "formulation": "spheres with impulse contacts",
+                "stages": stages + ["integrate:symplectic_euler", "broad_phase:grid",
+                                    "contact_normals", "impulses:gauss_seidel",
+                                    "projection"],
+                "step_order": "kick v += h a(x, v); drift x += h v; detect on the drifted "
+                              "positions; impulse passes; positional projection",
+                "contact_model": "impulse",
+                "restitution": contact.restitution,
+                "restitution_mapping": "e used as is in Newton's law along n: J_n = -(1 + e) "
+                                       "(u.n) / (1/m_a + 1/m_b) (no per-body product)",
+                "friction": contact.friction,
+                "friction_model": "Coulomb, Guendelman et al. 2003: stick (J_t = -u_t / k_t, "
+                                  "k_t = 1/m_a + 1/m_b + r_a^2/I_a + r_b^2/I_b) when |J_t| <= "
+                                  "mu J_n, else slide with mu J_n against u_t",
+                "inertia": "from the scene (2/5 m r^2 for the case's solid spheres), never "
+                           "recomputed",
+                "solver": {"kind": "sequential (Gauss-Seidel) pair impulses over the contact "
+                                   "list in a fixed order", "max_passes": MAX_PASSES,
+                           "stop": "a pass with no approaching contact",
+                           "approaching": f"u.n < -{APPROACH_TOL:g} (|u_a| + |u_b|)"},
+                "detection": "discrete" if self.variant == "overlap_normal" else
+                             "discrete_toi_normal",
+                "detection_note": "overlaps found once per step on the drifted positions; "
+                                  "discrete_toi_normal backs the pair up along its relative "
+                                  "path to the touching pose for the normal (velocities as "
+                                  "with continuous detection; positions by projection)",
+                "solver_iterations": MAX_PASSES,
+                "contact_normal": normal,
+                "contact_slop": f"gap <= {CONTACT_SLOP:g} (r_a + r_b) counts as touching",
+                "ccd": "none: discrete detection after the drift (a sphere moving more than "
+                       "about 2 r per step can tunnel)",
+                "projection": "one pass: overlapping pairs pushed apart along the centre line, "
+                              "depth split by inverse mass; spheres out of walls; velocities "
+                              "untouched",
+                "broad_phase": f"uniform grid over the bounding box, cell >= 2 r_max (enlarged "
+                               f"to fit {CELLS_PER_SPHERE} N + 64 cells), counting sort, 27 "
+                               f"neighbour cells",
+                "contact_capacity": self.nd["contact_a"].shape[0],
+                "wall_impulse": "accumulated impulse walls gave the spheres (observe()['wall_"
+                                "impulse'])",
+                "determinism": "bit-reproducible: every loop runs serially inside the "
+                               "serialised time loop (no atomics race, no parallel sums)"}
+
+
+STATS = ("dropped_contacts", "steps_without_grid", "max_passes", "steps_at_pass_cap",
+         "impulses", "contacts", "steps")
+
+
+def _ndarray(ti, arr):
+    """A taichi ndarray holding `arr`: (n, 3) float64 as vec3, else by dtype."""
+    arr = np.ascontiguousarray(arr)
+    if arr.ndim == 2:
+        out = ti.ndarray(_RUNTIME["lib"]["vec3"], arr.shape[0])
+    else:
+        dtype = {np.dtype(np.int32): ti.i32, np.dtype(np.int64): ti.i64}.get(arr.dtype, ti.f64)
+        out = ti.ndarray(dtype, arr.shape[0])
+    out.from_numpy(arr)
+    return out

@@ -27,6 +27,12 @@ the exact kinetic energy (e < 1 loses (1 - e^2) of the normal relative energy at
 `penetration_max` is the deepest overlap (sphere-sphere or sphere-wall) over the samples, in m.
 For the box, the compared observable is the relative kinetic-energy error |E(t) - E0| / E0
 (no closed-form trajectory exists for N bodies).
+
+Tolerances read the engine's `settings()`: "contact_model" is "impulse" (Newton restitution by
+impulses), "soft" (spring-damper contact; then "contact_duration_s") or "seed" (the slide's
+formula); "detection" is "continuous" (time of impact), "discrete_toi_normal" (found late but
+the normal taken at the time of impact) or "discrete" (normal of the overlapped pose, which
+earns the tilted-normal allowance on oblique impacts).
 """
 from __future__ import annotations
 
