@@ -69,6 +69,7 @@ class DamBreak(Case):
     quick_variants = ("res20",)
     default_variants = ("res20", "hydrostatic")  # res40 (minutes) is run by name
     divergence_factor = 10.0
+    tolerance_norm = "err_rms"  # the front's RMS error over the table (issue 5)
 
     # -- geometry ----------------------------------------------------------------------------
     def validate(self, overrides=None):

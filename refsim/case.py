@@ -62,6 +62,7 @@ class Case:
     quick_variants: tuple = ("default",)
     default_variants: tuple = ()  # what a plain `refsim run` covers; () means every variant
     divergence_factor = 100.0  # |E - E0| beyond this many energy scales: diverged
+    tolerance_norm = "err_max"  # the error column the tolerance bounds
     samples = 400  # about this many observations per run (every step when fewer steps)
 
     # -- parameters ---------------------------------------------------------------------------

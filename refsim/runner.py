@@ -172,7 +172,8 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory):
         tol, why = case.motion_scale(p), (f"{why}; that bound ({tol:.3g}) exceeds the motion "
                                           f"itself: capped at the motion scale (this dt does "
                                           f"not resolve the case with this method)")
-    row.update(tolerance=tol, tol_reason=why, within_tol=bool(row["err_max"] <= tol))
+    row.update(tolerance=tol, tol_reason=why,
+               within_tol=bool(row[case.tolerance_norm] <= tol))
     if repeats > 0 and stepping_s > max(budget_s, LONG_RUN_S):
         # a long run: its step() calls in the accuracy pass (observation outside them) are
         # the one timing sample; repeating it would only double the wall time. Its ~400
