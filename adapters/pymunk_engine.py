@@ -72,7 +72,7 @@ class PymunkEngine(Engine):
                         "simulate")
             return ("pymunk is 2D: it takes a 3D scene only when all motion stays in the x-z "
                     "plane (y = 0, no y velocity, gravity or anchor offset, hinge axes along y)")
-        if scene.dim == 2 and not _stays_in_xy_plane(scene):
+        if scene.dim == 2 and not scene.stays_in_plane(2):
             return ("pymunk is 2D: a 2D scene must have zero z components (positions, "
                     "velocities, gravity, anchors) and hinge axes along z")
         if any(np.delete(b.angular_velocity, _normal_axis(scene)).any() for b in scene.bodies):
@@ -108,19 +108,6 @@ class PymunkEngine(Engine):
 def _normal_axis(scene) -> int:
     """The refsim axis normal to pymunk's plane: y for 3D (x-z plane), z for 2D (x-y)."""
     return 1 if scene.dim == 3 else 2
-
-
-def _stays_in_xy_plane(scene) -> bool:
-    """2D scene check, the counterpart of `Scene.stays_in_xz_plane` with z the normal."""
-    if scene.gravity[2] != 0:
-        return False
-    if any(b.position[2] != 0 or b.velocity[2] != 0 for b in scene.bodies):
-        return False
-    if any(s.anchor[2] != 0 for s in scene.springs):
-        return False
-    if any(w.normal[2] != 0 for w in scene.walls):
-        return False
-    return all(j.anchor[2] == 0 and abs(j.axis[2]) == 1.0 for j in scene.joints)
 
 
 class PymunkSim(Sim):

@@ -215,19 +215,27 @@ class Scene:
             out |= {"fluid", "walls"}
         return out
 
+    def stays_in_plane(self, normal_axis: int) -> bool:
+        """True when every body's motion stays in the coordinate plane through the origin
+        normal to axis `normal_axis` (0, 1, 2): no position, velocity, force, anchor or wall
+        normal out of it, spins only about the normal, hinges about the normal."""
+        k = normal_axis
+        others = [a for a in range(3) if a != k]
+        if self.gravity[k] != 0:
+            return False
+        if any(b.position[k] != 0 or b.velocity[k] != 0 for b in self.bodies):
+            return False
+        if any(s.anchor[k] != 0 for s in self.springs):
+            return False
+        if any(w.normal[k] != 0 for w in self.walls):
+            return False
+        if any(b.angular_velocity[a] != 0 for b in self.bodies for a in others):
+            return False
+        return all(j.anchor[k] == 0 and abs(j.axis[k]) == 1.0 for j in self.joints)
+
     def stays_in_xz_plane(self) -> bool:
         """True when every body's motion stays in the x-z plane (y = 0, no y velocity or force)."""
-        if self.gravity[1] != 0:
-            return False
-        if any(b.position[1] != 0 or b.velocity[1] != 0 for b in self.bodies):
-            return False
-        if any(s.anchor[1] != 0 for s in self.springs):
-            return False
-        if any(w.normal[1] != 0 for w in self.walls):
-            return False
-        if any(b.angular_velocity[0] != 0 or b.angular_velocity[2] != 0 for b in self.bodies):
-            return False
-        return all(j.anchor[1] == 0 and abs(j.axis[1]) == 1.0 for j in self.joints)
+        return self.stays_in_plane(1)
 
     @property
     def masses(self) -> np.ndarray:

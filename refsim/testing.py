@@ -51,3 +51,31 @@ def assert_within_tolerance(case, engine, integrator, variant=None, engine_varia
                              f"{row['err_max']:.3g} > tolerance {row['tolerance']:.3g} "
                              f"({row['tol_reason']})")
     return row
+
+
+def spring_stable(engine, integrator, y, energy_factor=1e4, periods=100, engine_variant="",
+                  **params) -> bool:
+    """Stability criterion on the undamped stiff spring at y = omega dt: finite, and the
+    energy after every step below energy_factor * E0 over `periods` periods. (From rest,
+    symplectic Euler's energy legitimately peaks at E0 / (1 - y/2): a factor of 10 would put
+    its limit at y = 1.8, not 2.)"""
+    import math
+
+    import numpy as np
+
+    from adapters import get_engine
+    from cases import get_case
+    case = get_case("stiff_spring")
+    p = case.variant_params("default", params)
+    sim = get_engine(engine).build(case.scene(p), y / case.omega(p), integrator, engine_variant)
+    e0 = case.energy_scale(p)
+    try:
+        for _ in range(int(math.ceil(periods * 2 * math.pi / y))):
+            sim.step(1)
+            o = sim.observe()
+            energy = case.energy(p, {k: np.asarray([o[k]]) for k in o})[0]
+            if sim.failure or not np.isfinite(energy) or energy >= energy_factor * e0:
+                return False
+        return True
+    finally:
+        sim.close()

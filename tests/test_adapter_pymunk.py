@@ -11,6 +11,8 @@ import numpy as np
 import pymunk  # noqa: F401  (CI must have every engine: fail here, not skip)
 import pytest
 
+from refsim.testing import spring_stable
+
 from adapters import get_engine
 from cases import get_case
 from refsim.metrics import bisect_limit, convergence_order
@@ -158,18 +160,8 @@ def test_convergence_order_is_one(case, variant, engine_variant, over):
 
 # 3. stability limit ----------------------------------------------------------------------------
 def _spring_stable(y, energy_factor, periods=200):
-    """Criterion: finite, and the energy observed after every step stays below
-    energy_factor * E0, over `periods` undamped periods 2 pi / omega."""
-    c, p = _params("stiff_spring")
-    sim = PYMUNK.build(c.scene(p), y / c.omega(p), DK)
-    e0 = c.energy_scale(p)
-    for _ in range(int(math.ceil(periods * 2 * math.pi / y))):
-        sim.step(1)
-        o = sim.observe()
-        energy = c.energy(p, {k: np.asarray([o[k]]) for k in o})[0]
-        if not np.isfinite(energy) or energy >= energy_factor * e0:
-            return False
-    return True
+    """Finite, and the energy after every step below energy_factor * E0, over `periods`."""
+    return spring_stable("pymunk", DK, y, energy_factor, periods)
 
 
 def test_stability_limit_is_two():

@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from refsim.testing import spring_stable
+
 from adapters import get_engine
 from adapters.taichi_engine import _import_taichi
 from cases import get_case
@@ -126,19 +128,9 @@ def test_convergence_order(integrator, order, case, variant, over):
 
 # 3. stability limit ----------------------------------------------------------------------------
 def _spring_stable(integrator, y, energy_factor=1e4, periods=100):
-    """Criterion: finite, and the energy observed after every step stays below
-    energy_factor * E0 over `periods` undamped periods. Rest length 1e3 m (amplitude 0.1 m)
-    keeps the spring linear however far a growing oscillation swings."""
-    c, p = _params("stiff_spring", rest_length=1e3)
-    sim = TAICHI.build(c.scene(p), y / c.omega(p), integrator)
-    e0 = c.energy_scale(p)
-    for _ in range(int(math.ceil(periods * 2 * math.pi / y))):
-        sim.step(1)
-        o = sim.observe()
-        energy = c.energy(p, {k: np.asarray([o[k]]) for k in o})[0]
-        if not np.isfinite(energy) or energy >= energy_factor * e0:
-            return False
-    return True
+    """Finite, and energy below energy_factor * E0 after every step over `periods`; rest
+    length 1e3 m (amplitude 0.1 m) keeps the spring linear however far it swings."""
+    return spring_stable("taichi", integrator, y, energy_factor, periods, rest_length=1e3)
 
 
 @pytest.mark.parametrize("integrator, theory", [(SE, 2.0), (VV, 2.0), (RK4, 2 * math.sqrt(2))])
