@@ -1,9 +1,10 @@
 """pybullet (Bullet's Featherstone multibody, in DIRECT mode) behind the refsim contract.
 
-Every body is its own `btMultiBody`: a free point mass is a floating base; a body on a rod is a
-fixed base at the anchor with one revolute link whose centre of mass is the body (generalized
-coordinates: the rod length is exact, so the constraint error is zero). pybullet steps with
-semi-implicit Euler, velocities then positions ("kick-drift", refsim's `symplectic_euler`).
+Without contacts, every body is its own `btMultiBody`: a free point mass is a floating base; a
+body on a rod is a fixed base at the anchor with one revolute link whose centre of mass is the
+body (generalized coordinates: the rod length is exact, so the constraint error is zero).
+pybullet steps with semi-implicit Euler, velocities then positions ("kick-drift", refsim's
+`symplectic_euler`); with contacts, the bodies are rigid bodies (below), stepped the same way.
 
 Facts applied, measured on pybullet 3.2.7 (ENGINE_NOTES.md):
 - gravity defaults to 0 and the step to 1/240 s: both are set; `fixedTimeStep` is the whole step,
@@ -20,6 +21,41 @@ Facts applied, measured on pybullet 3.2.7 (ENGINE_NOTES.md):
   from the state at the start of the step (the force is cleared after every step). That is
   refsim's kick-drift exactly: v += h a(x, v); x += h v. Those Python calls are the engine's
   real cost in this use and are kept in the timing.
+
+Contacts (features "contacts" and "walls"). Each sphere is a free `btRigidBody`
+(`createMultiBody(useMaximalCoordinates=1)`, batch-created with `batchPositions`) with a
+GEOM_SPHERE shape; a wall is a static body: a box slab per face when the walls are the six faces
+of an axis-aligned box holding every body (an infinite GEOM_PLANE's AABB overlaps every sphere
+in the broad phase: 2.2x slower at N = 1000), else a GEOM_PLANE. Bullet's sequential-impulse
+solver then applies, at the start of every step, Newton's restitution law (target normal
+separation e times the approach speed) with Coulomb friction at every contact found at the
+positions reached by the previous step: discrete detection, an impulse model. Facts, measured
+on pybullet 3.2.7 with the colliding_spheres case (each default below breaks the exact
+outcome; the adapter changes it and says so in settings()):
+- restitution and lateral friction are multiplied over the pair (default restitution 0): every
+  sphere and wall gets sqrt(e) and sqrt(mu); rolling and spinning friction 0;
+- `contactSlop` (default 1e-5 m) is added to the contact distance, so a contact found exactly at
+  touching counts as a gap: the approach speed loses 1e-5 / dt (head-on e = 1 came out -0.995,
+  not -1, at dt = 1e-3): 0;
+- `contactBreakingThreshold` (default 0.02 m, a process-wide global in Bullet) makes contacts
+  with a wall before touching; the solver then spends the bounce on closing the gap (e = 1
+  against a wall came out 0.0): 1e-12 m, so a wall contact exists only once the shapes touch
+  (the bounce is then short by at most 1e-12 / dt m/s). Not 0: at 0, Bullet's sphere-box test
+  dropped its fresh contact point on round-off and found the contact only after 0.03-0.1 m
+  of penetration (sphere-plane and sphere-sphere contacts were exact at 0 too);
+- `restitutionVelocityThreshold` (default 0.2 m/s): slower impacts are perfectly inelastic: 0;
+- contact ERP (default: push-out velocity, an e = 0.5 impact came out 10 % fast; ENGINE_NOTES
+  3-12 %): `contactERP = erp = frictionERP = 0`, split impulse off, so overlaps are never pushed
+  out and velocities change only by the impacts;
+- `solverResidualThreshold` (default: the solver stops early) 0, 50 iterations: simultaneous
+  contacts (the cradle) are solved to convergence; a lone contact is exact after one;
+- `changeDynamics(localInertiaDiagonal=...)` on a maximal-coordinate body without `mass` sets the
+  mass to 0 (the step then gives NaN): mass and inertia are set together, the scene's inertia;
+- damping set to 0, sleeping disabled; CCD off (the default; at these speeds a body moves a
+  hundredth of its radius per step).
+A lone impact is then the exact impulse law with the normal of the overlapped pose: head-on
+outcomes are exact to round-off at any dt, an oblique one is tilted by the overlap (O(dt)).
+Stepping is one `stepSimulation` Python call per step (plus the force calls above, if any).
 """
 from __future__ import annotations
 
@@ -40,11 +76,35 @@ MAX_SPEED = math.inf  # replaces pybullet's 100 m/s multibody clamp
 _ZERO = (0.0, 0.0, 0.0)
 ROD_RTOL = 1e-9  # a body this far (relative) off its rod's circle is refused, not projected
 
+# Contact scenes: setPhysicsEngineParameter values (pybullet 3.2.7; reasons in the docstring).
+# contactBreakingThreshold is Bullet's global gContactBreakingThreshold: it holds for every
+# client in the process, so every contact build sets it (nothing else in refsim changes it).
+CONTACT_PARAMS = {
+    "contactERP": 0.0, "erp": 0.0, "frictionERP": 0.0, "useSplitImpulse": 0,
+    "contactSlop": 0.0, "contactBreakingThreshold": 1e-12, "restitutionVelocityThreshold": 0.0,
+    "numSolverIterations": 50, "solverResidualThreshold": 0.0, "enableConeFriction": 1,
+    "deterministicOverlappingPairs": 1,
+}
+SLAB_MIN_THICKNESS = 1.0  # m; a wall slab is at least this thick (and at least the box size)
+# pybullet's defaults that CONTACT_PARAMS replaces, with what each did (measured, dt = 1e-3)
+CONTACT_DEFAULTS = {
+    "contactSlop": "1e-5 m: head-on e=1 gave -0.995 (approach speed short by 1e-5/dt)",
+    "contactBreakingThreshold": ("0.02 m (process-global): a contact before touching absorbs "
+                                 "the bounce (e=1 on a wall gave 0.0); 0 breaks sphere-box "
+                                 "contacts (found 0.03-0.1 m deep): 1e-12 m"),
+    "restitutionVelocityThreshold": "0.2 m/s: head-on at 2 x 0.05 m/s gave e=0",
+    "contactERP": ("default push-out: head-on e=0.5 with overlap off by 0.049 m/s (+10 %); "
+                   "contactERP 0.2 / 0.8 gave +24 % / +98 %"),
+    "solverResidualThreshold": "early exit: the cradle's velocities off by ~1e-4",
+    "enableConeFriction / useSplitImpulse / erp / frictionERP / deterministicOverlappingPairs":
+        "no measured effect on these cases; set explicitly so the settings are known",
+}
+
 
 class PybulletEngine(Engine):
     name = "pybullet"
     package = "pybullet"
-    capabilities = frozenset({"gravity", "springs", "joints", "drag"})
+    capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"})
     dims = (3,)
     integrators = ("symplectic_euler",)
 
@@ -61,7 +121,7 @@ class PybulletEngine(Engine):
             why = _rod_mismatch(scene, j)
             if why:
                 return why
-        return None
+        return _contact_mismatch(scene)
 
     def build(self, scene, dt, integrator, variant=""):
         dt = float(dt)
@@ -102,6 +162,63 @@ def _c_stdout_silenced():
         os.close(saved)
 
 
+def _contact_mismatch(scene):
+    """A reason when the adapter cannot build the scene's contacts faithfully, else None."""
+    if scene.walls and scene.contact is None:
+        return "pybullet adapter: walls need a contact model (scene.contact: e and mu)"
+    if scene.contact is None:
+        return None
+    if scene.joints:
+        return ("pybullet adapter: contacts are built for free spheres only (a body on a rod "
+                "is a multibody link without a collision shape)")
+    for i, b in enumerate(scene.bodies):
+        if b.radius <= 0:
+            return (f"pybullet adapter: every body of a contact scene must be a sphere "
+                    f"(radius > 0); body {i} has radius {b.radius:g}")
+        if b.inertia <= 0 and scene.contact.friction > 0:
+            return (f"pybullet adapter: body {i} has zero inertia under friction; Bullet reads "
+                    f"a zero inertia as infinite (no spin), not as zero")
+    return None
+
+
+def _wall_slabs(walls, bodies):
+    """(centre, half extents) per wall when the walls are the six faces of an axis-aligned box
+    that holds every body centre; None otherwise (each wall is then an infinite plane).
+
+    A slab lies outside the box, its inner face on the wall, overhanging the box's other faces
+    by twice the largest radius, and as thick as the box (at least SLAB_MIN_THICKNESS): a
+    sphere would have to tunnel through it to tell it from the half-space the wall stands for.
+    """
+    if len(walls) != 6:
+        return None
+    lo, hi = [None] * 3, [None] * 3
+    for w in walls:
+        axis = int(np.argmax(np.abs(w.normal)))
+        if abs(w.normal[axis]) != 1.0:
+            return None
+        side = lo if w.normal[axis] > 0 else hi
+        if side[axis] is not None:
+            return None
+        side[axis] = w.point[axis]
+    if any(v is None for v in lo + hi):
+        return None
+    lo, hi = np.array(lo, float), np.array(hi, float)
+    x = np.array([b.position for b in bodies])
+    if np.any(hi <= lo) or np.any(x < lo) or np.any(x > hi):
+        return None
+    pad = 2.0 * max(b.radius for b in bodies)
+    thick = max(SLAB_MIN_THICKNESS, float(np.max(hi - lo)))
+    slabs = []
+    for w in walls:
+        axis = int(np.argmax(np.abs(w.normal)))
+        half = 0.5 * (hi - lo) + pad
+        half[axis] = 0.5 * thick
+        centre = 0.5 * (lo + hi)
+        centre[axis] = w.point[axis] - w.normal[axis] * 0.5 * thick
+        slabs.append((tuple(centre), tuple(half)))
+    return slabs
+
+
 def _rod_mismatch(scene, joint):
     """A reason when the body is not on the rod's circle or moves off the hinge's arc (a
     revolute joint cannot hold that state); None when the hinge represents it exactly."""
@@ -125,22 +242,87 @@ class PybulletSim(Sim):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
         with _c_stdout_silenced():
             self.client = p.connect(p.DIRECT)
+        self.contact = scene.contact
+        self.walls_built = "none"
         try:
             self.engine_params = self._configure_world()
-            self.handles, self.hinges = self._build_bodies()
+            if self.contact is not None:
+                self.handles, self.hinges = self._sphere_bodies(), []
+                self._build_walls()
+            else:
+                self.handles, self.hinges = self._build_bodies()
             self.forces = _ForceTerms(scene)
             self._apply = self.forces.applier(p, self.client, self.handles)
         except Exception:
             self.close()
             raise
 
-    # -- model ---------------------------------------------------------------------------------
+    # -- world ---------------------------------------------------------------------------------
     def _configure_world(self):
         p, cid = self.p, self.client
         p.setGravity(*self.scene.gravity, physicsClientId=cid)
         p.setPhysicsEngineParameter(fixedTimeStep=self.dt, numSubSteps=0, physicsClientId=cid)
+        if self.contact is not None:
+            p.setPhysicsEngineParameter(**CONTACT_PARAMS, physicsClientId=cid)
         return p.getPhysicsEngineParameters(physicsClientId=cid)  # effective values, read back
 
+    # -- contacts ------------------------------------------------------------------------------
+    def _materials(self):
+        """Per-body values whose pair product is the scene's e and mu (Bullet multiplies)."""
+        return dict(restitution=math.sqrt(self.contact.restitution),
+                    lateralFriction=math.sqrt(self.contact.friction),
+                    rollingFriction=0.0, spinningFriction=0.0)
+
+    def _sphere_bodies(self):
+        """One free btRigidBody per sphere, created in batches of equal (mass, radius) with
+        `batchPositions`, then mass, inertia, materials, damping and velocities per body."""
+        p, cid, bodies = self.p, self.client, self.scene.bodies
+        groups = {}
+        for i, b in enumerate(bodies):
+            groups.setdefault((b.mass, b.radius), []).append(i)
+        uids = [None] * len(bodies)
+        for (mass, radius), members in groups.items():
+            shape = p.createCollisionShape(p.GEOM_SPHERE, radius=radius, physicsClientId=cid)
+            made = p.createMultiBody(baseMass=mass, baseCollisionShapeIndex=shape,
+                                     batchPositions=[bodies[i].position for i in members],
+                                     useMaximalCoordinates=1, physicsClientId=cid)
+            for i, uid in zip(members, made):
+                uids[i] = uid
+        materials = self._materials()
+        for uid, b in zip(uids, bodies):
+            p.changeDynamics(uid, -1, mass=b.mass, localInertiaDiagonal=(b.inertia,) * 3,
+                             linearDamping=0.0, angularDamping=0.0,
+                             activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING,
+                             physicsClientId=cid, **materials)
+            p.resetBaseVelocity(uid, b.velocity, b.angular_velocity, physicsClientId=cid)
+        return [(uid, -1) for uid in uids]
+
+    def _build_walls(self):
+        """Static bodies: one box slab per face when the walls are an axis-aligned box holding
+        the bodies (an infinite plane's AABB overlaps every sphere in the broad phase, so planes
+        cost 2.2x the step at N = 1000), else one infinite GEOM_PLANE per wall."""
+        p, cid, walls = self.p, self.client, self.scene.walls
+        if not walls:
+            return
+        slabs = _wall_slabs(walls, self.scene.bodies)
+        if slabs is not None:
+            shapes = [(p.createCollisionShape(p.GEOM_BOX, halfExtents=half,
+                                              physicsClientId=cid), centre)
+                      for centre, half in slabs]
+            self.walls_built = ("6 static box slabs (GEOM_BOX) outside the box, inner faces on "
+                                "the walls, as thick as the box")
+        else:
+            shapes = [(p.createCollisionShape(p.GEOM_PLANE, planeNormal=w.normal,
+                                              physicsClientId=cid), w.point) for w in walls]
+            self.walls_built = f"{len(walls)} static infinite planes (GEOM_PLANE)"
+        materials = self._materials()
+        for shape, where in shapes:
+            uid = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape,
+                                    basePosition=where, useMaximalCoordinates=1,
+                                    physicsClientId=cid)
+            p.changeDynamics(uid, -1, physicsClientId=cid, **materials)
+
+    # -- model (no contacts) -------------------------------------------------------------------
     def _build_bodies(self):
         """(multibody id, link index) per scene body: -1 for a free base, 0 for a rod's link."""
         rods = {j.body: j for j in self.scene.joints}
@@ -215,6 +397,9 @@ class PybulletSim(Sim):
                "v": np.array([s[1] for s in states], float)}
         if self.scene.joints:
             out["constraint"] = np.zeros(len(self.scene.joints))  # generalized coordinates
+        if self.contact is not None:
+            out["w"] = np.array([self.p.getBaseVelocity(uid, physicsClientId=self.client)[1]
+                                 for uid, _ in self.handles], float)
         return out
 
     def settings(self):
@@ -238,15 +423,54 @@ class PybulletSim(Sim):
             "stages": self._stages(),
             **self.forces.describe(self.handles),
         }
+        if self.contact is not None:
+            out.update(self._contact_settings())
         if self.hinges:
             out.update(jointDamping=0.0, velocity_motor="off (VELOCITY_CONTROL, force=0)",
                        joint_limits="none", joint_angle="q = refsim's hinge angle theta "
                        "(joint axis -axis), set with resetJointState")
         return out
 
+    def _contact_settings(self):
+        e, mu = self.contact.restitution, self.contact.friction
+        return {
+            "integrator": dict(INTEGRATOR, native=("semi-implicit Euler (btRigidBody: "
+                                                   "velocities, contact impulses included, "
+                                                   "then positions)")),
+            "python_per_step_note": ("one stepSimulation call from Python per step (plus the "
+                                     "force calls, if any): the engine's real cost, timed"),
+            "contact_model": "impulse",
+            "detection": "discrete",
+            "contact_solver": ("sequential impulses (projected Gauss-Seidel) on Newton's "
+                               "restitution law + Coulomb friction, once per step, before the "
+                               "positions move; contacts from the previous step's positions"),
+            "restitution_mapping": (f"restitution sqrt(e) = {math.sqrt(e)!r} on every "
+                                    f"sphere and wall (Bullet multiplies the pair's values)"),
+            "friction_mapping": (f"lateralFriction sqrt(mu) = {math.sqrt(mu)!r} on every "
+                                 f"sphere and wall (multiplied); rollingFriction = "
+                                 f"spinningFriction = 0"),
+            "engine_parameters": dict(CONTACT_PARAMS),
+            "changed_defaults": dict(CONTACT_DEFAULTS),
+            "global_state": ("contactBreakingThreshold is process-global in Bullet "
+                             "(gContactBreakingThreshold): set by every contact build"),
+            "solver_iterations": CONTACT_PARAMS["numSolverIterations"],
+            "ccd": ("off (ccdSweptSphereRadius = 0, the default): discrete detection; an "
+                    "oblique contact's normal is the overlapped pose's"),
+            "formulation": ("free rigid bodies (btRigidBody, useMaximalCoordinates=1) with "
+                            "GEOM_SPHERE shapes, created with batchPositions"),
+            "useMaximalCoordinates": True,
+            "inertia": ("the scene's, set with changeDynamics(mass, localInertiaDiagonal) "
+                        "(without mass a maximal-coordinate body gets mass 0)"),
+            "inertia_values": sorted({b.inertia for b in self.scene.bodies}),  # distinct
+            "collision_shapes": "GEOM_SPHERE per body; walls: " + self.walls_built,
+            "maxJointVelocity": "n/a (rigid bodies have no speed clamp)",
+        }
+
     def _stages(self):
         stages = ["gravity"] if any(self.scene.gravity) else []
         stages += self.forces.names() + (["revolute_generalized"] if self.hinges else [])
+        if self.contact is not None:
+            stages += ["contacts:discrete_detection", "contacts:impulses"]
         return stages + ["integrate:symplectic_euler"]
 
     def close(self):
