@@ -67,15 +67,19 @@ import numpy as np
 from refsim.engine import Engine, Sim
 from refsim.integrators import get_integrator
 from refsim.models.joints import cartesian_to_hinge, hinge_frame, hinge_to_cartesian
+from refsim.models.sph import GAMMA as SPH_GAMMA
+from refsim.models.sph import tait_density
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4")
 VARIANTS = ("", "launch_per_step")
 CONTACT_VARIANTS = VARIANTS + ("overlap_normal",)
+FLUID_VARIANTS = VARIANTS + ("parallel",)
 MAX_PASSES = 100  # Gauss-Seidel impulse passes per step, at most
 APPROACH_TOL = 1e-12  # approaching: u.n < -APPROACH_TOL (|u_a| + |u_b|)
 CONTACT_SLOP = 1e-9  # in contact: gap <= CONTACT_SLOP (r_a + r_b) (catches round-off touching)
 CELLS_PER_SPHERE = 8  # grid array size 8 N + 64 (the cell size grows past 2 r_max to fit)
 CONTACTS_PER_SPHERE = 16  # contact list size 16 N + 64; more is reported as a failure
+SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)
 THREADS = 1
 OFFLINE_CACHE = False
 CACHE_DIR = os.path.join(tempfile.gettempdir(),
@@ -114,6 +118,7 @@ def _runtime() -> dict:
     init_s = time.perf_counter() - t0
     lib = _define(ti)
     lib.update(_define_spheres(ti, lib))
+    lib.update(_define_sph(ti, lib))
     _RUNTIME.update(ti=ti, init_s=init_s, lib=lib, kernels={}, compiled=set(),
                     launch_us={})
     return _RUNTIME
@@ -514,6 +519,270 @@ def _define_spheres(ti, lib) -> dict:
     return {"contacts_t": contacts_t, "advance_spheres": advance_spheres}
 
 
+def _define_sph(ti, lib) -> dict:
+    """2D WCSPH (`refsim.models.sph`'s model and parameters) as taichi functions and two
+    kernels: `start_sph` (grid, pressures, a(x0, rho0)) and `advance_sph`, whose serialised
+    time loop runs refsim's kick-drift-kick step with the trapezoid density drift.
+
+    Particles: fluid 0..n_fluid-1, then the fixed wall (dummy) particles, in one position and
+    one velocity array (walls at rest, v = 0). Neighbours: a uniform grid over the bounding
+    box of all particles, cell >= 2h, rebuilt after every drift by a serial counting sort
+    (ids in index order within a cell); each particle gathers its own sums over the 3 x 3
+    cells around it (every sum is written by its owner: no atomics, no scatter). Pairs are
+    those with r < 2h, i != j; the expressions follow the numpy model term by term, so the two
+    engines differ in summation order only."""
+    f64, i32 = ti.f64, ti.i32
+    vec2, ivec2 = ti.types.vector(2, f64), ti.types.vector(2, i32)
+    nd_vec2 = ti.types.ndarray(dtype=vec2, ndim=1)
+    nd_f64 = ti.types.ndarray(dtype=f64, ndim=1)
+    nd_i32 = ti.types.ndarray(dtype=i32, ndim=1)
+    nd_i64 = ti.types.ndarray(dtype=ti.i64, ndim=1)
+    sph_t = ti.types.argpack(
+        n_fluid=i32, mass=f64, h=f64, rho0=f64, c0=f64, alpha=f64, gravity=vec2, cell_min=f64,
+        rho=nd_f64, p=nd_f64, drho=nd_f64, acc=nd_vec2, cell_count=nd_i32, cell_start=nd_i32,
+        cell_of=nd_i32, order=nd_i32, grid=nd_f64, dims=nd_i32, stats=nd_i64)
+    pi = math.pi
+
+    # -- model: refsim.models.sph, written with the same operation order ----------------------
+    @ti.func
+    def wendland(r, h):
+        q = r / h
+        return 7.0 / (4.0 * pi * h * h) * ti.pow(ti.max(1.0 - 0.5 * q, 0.0), 4.0) * (1.0 + 2.0 * q)
+
+    @ti.func
+    def gradient_factor(r, h):
+        """F with grad_i W_ij = F (x_i - x_j)."""
+        q = r / h
+        return -5.0 * 7.0 / (4.0 * pi * h * h) * ti.pow(ti.max(1.0 - 0.5 * q, 0.0), 3.0) / (h * h)
+
+    @ti.func
+    def tait_pressure(S: ti.template(), rho):
+        return S.rho0 * S.c0 * S.c0 / SPH_GAMMA * (ti.pow(rho / S.rho0, SPH_GAMMA) - 1.0)
+
+    @ti.func
+    def tait_density(S: ti.template(), p):
+        return S.rho0 * ti.pow(ti.max(1.0 + p * SPH_GAMMA / (S.rho0 * S.c0 * S.c0), 1e-6),
+                               1.0 / SPH_GAMMA)
+
+    # -- neighbours: uniform grid, serial counting sort ----------------------------------------
+    @ti.func
+    def build_grid(x: ti.template(), S: ti.template()):
+        """Bounding box of all particles, cell >= S.cell_min (enlarged until the grid fits the
+        cell arrays), counting sort: S.order lists particle ids cell by cell (index order in a
+        cell), cell k holds S.order[cell_start[k]:cell_count[k]]; S.cell_of[i] is i's cell.
+        A non-finite coordinate leaves no grid (dims 0: no pairs) and is counted in stats[0]."""
+        lo, hi = vec2(1e308, 1e308), vec2(-1e308, -1e308)
+        ok = 1
+        for i in range(x.shape[0]):
+            lo, hi = ti.min(lo, x[i]), ti.max(hi, x[i])
+            if not (ti.abs(x[i]) < 1e300).all():
+                ok = 0
+        ext = hi - lo
+        for k in ti.static(range(2)):
+            if not ext[k] < 1e300:
+                ok = 0
+        c, dims = S.cell_min, ivec2(0, 0)
+        if ok:
+            cap = ti.cast(S.cell_count.shape[0], f64)
+            nf = ti.floor(ext / c) + 1.0
+            while nf[0] * nf[1] > cap:
+                c *= ti.max(1.05, ti.sqrt(nf[0] * nf[1] / cap))
+                nf = ti.floor(ext / c) + 1.0
+            dims = ti.cast(nf, i32)
+            total = dims[0] * dims[1]
+            for k in range(total):
+                S.cell_count[k] = 0
+            for i in range(x.shape[0]):
+                q = ti.min(ti.cast(ti.floor((x[i] - lo) / c), i32), dims - 1)
+                cell = q[1] * dims[0] + q[0]
+                S.cell_of[i] = cell
+                S.cell_count[cell] += 1
+            running = 0
+            for k in range(total):
+                S.cell_start[k] = running
+                running += S.cell_count[k]
+                S.cell_count[k] = S.cell_start[k]  # the fill pointer, then the cell's end
+            for i in range(x.shape[0]):
+                cell = S.cell_of[i]
+                S.order[S.cell_count[cell]] = i
+                S.cell_count[cell] += 1
+        else:
+            S.stats[0] += 1
+        S.grid[0], S.grid[1], S.grid[2] = lo[0], lo[1], c
+        S.dims[0], S.dims[1] = dims[0], dims[1]
+
+    @ti.func
+    def row_span(S: ti.template(), i, dy):
+        """Ids S.order[s0:s1]: the cells x-1..x+1 of row y+dy around particle i's cell (cells
+        of a row are contiguous in S.order). Empty without a grid."""
+        s0, s1 = 0, 0
+        nx, ny = S.dims[0], S.dims[1]
+        if nx > 0:
+            cell = S.cell_of[i]
+            qx, qy = cell % nx, cell // nx + dy
+            if 0 <= qy < ny:
+                row = qy * nx
+                s0 = S.cell_start[row + ti.max(qx - 1, 0)]
+                s1 = S.cell_count[row + ti.min(qx + 1, nx - 1)]
+        return s0, s1
+
+    # -- rates, each gathered by its owner -----------------------------------------------------
+    @ti.func
+    def continuity(x: ti.template(), v: ti.template(), S: ti.template(), i):
+        """d rho_i/dt = sum_j m (v_i - v_j) . grad_i W_ij (walls at rest)."""
+        reach = 2.0 * S.h
+        out = 0.0
+        for dy in range(-1, 2):
+            s0, s1 = row_span(S, i, dy)
+            for s in range(s0, s1):
+                j = S.order[s]
+                if j != i:
+                    d = x[i] - x[j]
+                    r = ti.sqrt(d[0] * d[0] + d[1] * d[1])
+                    if r < reach:
+                        grad = gradient_factor(r, S.h) * d
+                        dv = v[i] - v[j]
+                        out += S.mass * (dv[0] * grad[0] + dv[1] * grad[1])
+        return out
+
+    @ti.func
+    def pressures(x: ti.template(), S: ti.template()):
+        """Fluid: p = max(Tait(rho), 0). Walls (Adami 2012, eq. 27, wall at rest):
+        p_w = max((sum p_f W + sum rho_f ((x_w - x_f) . g) W) / sum W, 0) (0 without fluid
+        neighbours), rho_w from the inverted equation of state."""
+        for i in range(S.n_fluid):
+            S.p[i] = ti.max(tait_pressure(S, S.rho[i]), 0.0)
+        for w in range(S.n_fluid, x.shape[0]):
+            wall_pressure(x, S, w)
+
+    @ti.func
+    def wall_pressure(x: ti.template(), S: ti.template(), w):
+        """Adami's extrapolated pressure and the matching density of wall particle w."""
+        n = S.n_fluid
+        reach = 2.0 * S.h
+        g = S.gravity
+        total, num_p, num_g = 0.0, 0.0, 0.0
+        for dy in range(-1, 2):
+            s0, s1 = row_span(S, w, dy)
+            for s in range(s0, s1):
+                f = S.order[s]
+                if f < n:
+                    dw = x[w] - x[f]
+                    r = ti.sqrt(dw[0] * dw[0] + dw[1] * dw[1])
+                    if r < reach:
+                        weight = wendland(r, S.h)
+                        total += weight
+                        num_p += S.p[f] * weight
+                        num_g += S.rho[f] * (dw[0] * g[0] + dw[1] * g[1]) * weight
+        pw = 0.0
+        if total > 0.0:
+            pw = (num_p + num_g) / total
+        pw = ti.max(pw, 0.0)
+        S.p[w] = pw
+        S.rho[w] = tait_density(S, pw)
+
+    @ti.func
+    def momentum(x: ti.template(), v: ti.template(), S: ti.template(), i):
+        """dv_i/dt = -sum_j m (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad_i W_ij + g, Monaghan's
+        Pi_ij = -alpha c0 mu_ij / rho_ij for approaching pairs, mu_ij = h v_ij.x_ij /
+        (r^2 + 0.01 h^2), rho_ij the mean density."""
+        reach = 2.0 * S.h
+        out = vec2(0.0, 0.0)
+        pi_term = S.p[i] / (S.rho[i] * S.rho[i])
+        for dy in range(-1, 2):
+            s0, s1 = row_span(S, i, dy)
+            for s in range(s0, s1):
+                j = S.order[s]
+                if j != i:
+                    d = x[i] - x[j]
+                    r = ti.sqrt(d[0] * d[0] + d[1] * d[1])
+                    if r < reach:
+                        grad = gradient_factor(r, S.h) * d
+                        dv = v[i] - v[j]
+                        vr = dv[0] * d[0] + dv[1] * d[1]
+                        visc = 0.0
+                        if vr < 0.0:
+                            mu = S.h * vr / (r * r + 0.01 * S.h * S.h)
+                            visc = -S.alpha * S.c0 * mu / (0.5 * (S.rho[i] + S.rho[j]))
+                        coef = S.mass * (pi_term + S.p[j] / (S.rho[j] * S.rho[j]) + visc)
+                        out += -coef * grad
+        return out + S.gravity
+
+    @ti.func
+    def accelerations(x: ti.template(), v: ti.template(), S: ti.template()):
+        pressures(x, S)
+        for i in range(S.n_fluid):
+            S.acc[i] = momentum(x, v, S, i)
+
+    # -- kernels -------------------------------------------------------------------------------
+    @ti.kernel
+    def start_sph(x: nd_vec2, v: nd_vec2, S: sph_t):
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            build_grid(x, S)
+            accelerations(x, v, S)
+
+    @ti.kernel
+    def advance_sph(x: nd_vec2, v: nd_vec2, S: sph_t, dt: f64, n: ti.i32):
+        """Per step (refsim.models.sph.WCSPH.step): v+ = v + dt/2 a; D0 = D(x, v+) on the grid
+        of x; x' = x + dt v+; grid of x'; rho' = rho + dt/2 (D0 + D(x', v+));
+        a' = a(x', rho'); v' = v+ + dt/2 a'."""
+        ti.loop_config(serialize=True)  # the time loop: serial, and so is everything inside
+        for _ in range(n):
+            half = 0.5 * dt
+            nf = S.n_fluid
+            for i in range(nf):
+                v[i] = v[i] + half * S.acc[i]
+            for i in range(nf):
+                S.drho[i] = continuity(x, v, S, i)
+            for i in range(nf):
+                x[i] = x[i] + dt * v[i]
+            build_grid(x, S)
+            for i in range(nf):
+                S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i))
+            accelerations(x, v, S)
+            for i in range(nf):
+                v[i] = v[i] + half * S.acc[i]
+            S.stats[1] += 1
+
+    @ti.kernel
+    def step_sph_parallel(x: nd_vec2, v: nd_vec2, S: sph_t, dt: f64):
+        """One step of `advance_sph`, each stage a top-level loop that taichi runs on
+        cpu_max_num_threads threads: every particle writes only its own sums (gathers, no
+        atomics), and the counting sort stays serial, so the bits do not depend on the
+        thread count or schedule."""
+        half = 0.5 * dt
+        for i in range(S.n_fluid):
+            v[i] = v[i] + half * S.acc[i]
+        for i in range(S.n_fluid):
+            S.drho[i] = continuity(x, v, S, i)
+        for i in range(S.n_fluid):
+            x[i] = x[i] + dt * v[i]
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            build_grid(x, S)
+        for i in range(S.n_fluid):
+            S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i))
+        for i in range(S.n_fluid):
+            S.p[i] = ti.max(tait_pressure(S, S.rho[i]), 0.0)
+        for w in range(S.n_fluid, x.shape[0]):
+            wall_pressure(x, S, w)
+        for i in range(S.n_fluid):
+            S.acc[i] = momentum(x, v, S, i)
+        for i in range(S.n_fluid):
+            v[i] = v[i] + half * S.acc[i]
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            S.stats[1] += 1
+
+    def advance_sph_parallel(x, v, S, dt, n):
+        for _ in range(n):
+            step_sph_parallel(x, v, S, dt)
+
+    return {"vec2": vec2, "sph_t": sph_t, "start_sph": start_sph, "advance_sph": advance_sph,
+            "step_sph_parallel": step_sph_parallel, "advance_sph_parallel": advance_sph_parallel}
+
+
 def _kernels(system: str, integrator: str):
     """(start, advance) kernels for a system and stepper, made once per process."""
     rt = _runtime()
@@ -522,6 +791,9 @@ def _kernels(system: str, integrator: str):
         lib = rt["lib"]
         if system == "spheres":  # one kernel (kick-drift + contacts), no start kernel
             rt["kernels"][key] = (None, lib["advance_spheres"])
+            return rt["kernels"][key]
+        if system == "sph":  # start: grid and a(x0, rho0); advance: the time loop
+            rt["kernels"][key] = (lib["start_sph"], lib["advance_sph"])
             return rt["kernels"][key]
         accel, state_t, pack_t = lib["systems"][system]
         rt["kernels"][key] = (lib["accel_kernel"](accel, state_t, pack_t),
@@ -551,7 +823,8 @@ def _launch_overhead_us(advance, args) -> float:
 class TaichiEngine(Engine):
     name = "taichi"
     package = "taichi"
-    capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"})
+    capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls",
+                              "fluid"})
     dims = (2, 3)
     integrators = INTEGRATORS
 
@@ -563,12 +836,16 @@ class TaichiEngine(Engine):
         return True
 
     def variants(self, scene):
+        if scene.fluid is not None:
+            return FLUID_VARIANTS
         return CONTACT_VARIANTS if _has_contacts(scene) else VARIANTS
 
     def supports(self, scene, integrator=None):
         reason = super().supports(scene, integrator)
         if reason:
             return reason
+        if scene.fluid is not None:
+            return _fluid_refusal(scene, integrator)
         if any(s.other is not None for s in scene.springs):
             return ("taichi adapter: springs between two bodies are not modelled "
                     "(only springs to fixed anchors)")
@@ -596,12 +873,27 @@ class TaichiEngine(Engine):
         reason = self.supports(scene, integrator)
         if reason:
             raise ValueError(reason)
+        if scene.fluid is not None:
+            return FluidSim(scene, dt, integrator, variant)
         cls = SphereSim if _has_contacts(scene) else HingeSim if scene.joints else ParticleSim
         return cls(scene, dt, integrator, variant)
 
 
 def _has_contacts(scene) -> bool:
     return bool({"contacts", "walls"} & scene.features())
+
+
+def _fluid_refusal(scene, integrator):
+    """Why a fluid scene cannot be simulated faithfully here, or None."""
+    if scene.bodies or scene.springs or scene.joints or scene.contact is not None:
+        return ("taichi adapter: a fluid scene holds the fluid and its tank only (bodies, "
+                "springs, joints or contacts with SPH are not modelled)")
+    if scene.linear_drag > 0:
+        return "taichi adapter: linear drag on SPH particles is not modelled"
+    if integrator is not None and integrator != "velocity_verlet":
+        return ("taichi adapter: fluid scenes step with kick-drift-kick SPH "
+                "('velocity_verlet'), as refsim's")
+    return None
 
 
 def _contact_refusal(scene, integrator):
@@ -911,15 +1203,149 @@ class SphereSim(_KernelSim):
                                "serialised time loop (no atomics race, no parallel sums)"}
 
 
+class FluidSim(_KernelSim):
+    """2D weakly compressible SPH (feature "fluid"): refsim's model (`refsim.models.sph`:
+    Wendland C2, Tait gamma 7, Monaghan viscosity, Adami 2012 wall particles, negative
+    pressures clamped to 0) and refsim's kick-drift-kick step with the trapezoid density drift,
+    as taichi kernels (`_define_sph`). Particles, masses and initial densities are built by
+    the in-house engine's own functions (`adapters.refsim_sph`), so both engines start from
+    the same bits."""
+
+    system = "sph"
+
+    def __init__(self, scene, dt, integrator, variant):
+        from .refsim_sph import WALL_LAYERS, fluid_particles, wall_particles
+        ti = _runtime()["ti"]
+        fluid = self.fluid = scene.fluid
+        self.gravity = (np.asarray(scene.gravity, float)[:2] if scene.dim == 2
+                        else np.asarray(scene.gravity, float)[[0, 2]])
+        x = fluid_particles(fluid)
+        walls = wall_particles(fluid)
+        depth = fluid.upper[1] - x[:, 1]  # hydrostatic start, as adapters.refsim_sph.FluidSim
+        rho = tait_density(fluid.density * abs(self.gravity[1]) * depth, fluid.density,
+                           fluid.sound_speed)
+        self.n_fluid, self.n_wall, self.wall_layers = len(x), len(walls), WALL_LAYERS
+        total = self.n_fluid + self.n_wall
+        self.mass = fluid.density * fluid.spacing ** 2
+        self.h = fluid.smoothing * fluid.spacing
+        self.cells = SPH_CELLS_PER_PARTICLE * total + 64
+        arrays = {"rho": np.concatenate([rho, np.full(self.n_wall, fluid.density)]),
+                  "p": np.zeros(total), "drho": np.zeros(self.n_fluid),
+                  "acc": np.zeros((self.n_fluid, 2)),
+                  "cell_count": np.zeros(self.cells, np.int32),
+                  "cell_start": np.zeros(self.cells, np.int32),
+                  "cell_of": np.zeros(total, np.int32), "order": np.zeros(total, np.int32),
+                  "grid": np.zeros(3), "dims": np.zeros(2, np.int32),
+                  "stats": np.zeros(len(SPH_STATS), np.int64)}
+        lib = _RUNTIME["lib"]
+        self.nd = {key: _ndarray(ti, arr) for key, arr in arrays.items()}
+        self.x = _ndarray(ti, np.concatenate([x, walls]))
+        self.v = _ndarray(ti, np.zeros((total, 2)))
+        pack = lib["sph_t"](n_fluid=self.n_fluid, mass=self.mass, h=self.h,
+                            rho0=fluid.density, c0=fluid.sound_speed,
+                            alpha=fluid.viscosity_alpha, gravity=lib["vec2"](*self.gravity),
+                            cell_min=self.cell_min(self.h), **self.nd)
+        super().__init__(dt, integrator, variant, (self.x, self.v, pack))
+        if variant == "parallel":
+            self._compile_parallel(lib)
+
+    def _compile_parallel(self, lib):
+        """The `parallel` variant: one launch per step of a kernel whose stages are top-level
+        (multi-threaded) loops. Its first launch compiles; it is made here with dt = 0, a
+        no-op on the state (v, x, rho unchanged; a and the grid recomputed from the same
+        state by the same functions, so the same bits), and timed into compile_s."""
+        ti = _RUNTIME["ti"]
+        step_kernel = lib["step_sph_parallel"]
+        key = ("sph", "parallel")
+        t0 = time.perf_counter()
+        step_kernel(*self.args, 0.0)
+        ti.sync()
+        self.compile_s += time.perf_counter() - t0
+        self.cold = self.cold or key not in _RUNTIME["compiled"]
+        _RUNTIME["compiled"].add(key)
+        self.nd["stats"].from_numpy(np.zeros(len(SPH_STATS), np.int64))
+        self.advance = lib["advance_sph_parallel"]
+
+    def _thread_settings(self, base) -> dict:
+        if self.variant != "parallel":
+            return {"threads_used": 1,
+                    "threads_note": "taichi parallelises only a kernel's outermost loop; here "
+                                    "it is the serialised time loop, so the SPH kernel uses "
+                                    "one thread whatever cpu_max_num_threads is"}
+        return {"threads_used": base["cpu_max_num_threads"],
+                "time_loop": "one launch per step from Python; each stage a top-level loop "
+                             "run on cpu_max_num_threads threads (counting sort serial)",
+                "per_step_python_call": "one kernel launch per step (part of step_s)",
+                "threads_note": "stages gather per particle (no atomics), so results are "
+                                "bit-identical to the serial kernel at any thread count; "
+                                "the process pins cpu_max_num_threads at ti.init "
+                                f"(THREADS = {THREADS} in this adapter)"}
+
+    @staticmethod
+    def cell_min(h) -> float:
+        """Grid cell: the kernel support 2h, widened by 1e-12 so that the rounding of
+        (x - lo) / c never puts a pair closer than 2h two cells apart."""
+        return 2.0 * h * (1.0 + 1e-12)
+
+    def step(self, n):
+        super().step(n)
+        stats = self.sph_stats()
+        if stats["steps_without_grid"]:
+            self.failure = f"non-finite particle positions by t={self.t:.6g}"
+
+    def sph_stats(self) -> dict:
+        return dict(zip(SPH_STATS, (int(c) for c in self.nd["stats"].to_numpy())))
+
+    def observe(self):
+        n = self.n_fluid
+        return {"t": self.t, "x": self.x.to_numpy()[:n].copy(),
+                "v": self.v.to_numpy()[:n].copy(), "rho": self.nd["rho"].to_numpy()[:n].copy(),
+                "mass": np.full(n, self.mass)}
+
+    def settings(self):
+        f = self.fluid
+        base = self.base_settings()
+        integ = {"name": "velocity_verlet", "order": 2,
+                 "family": "kick-drift-kick (leapfrog) with continuity density",
+                 "explicit": True, "symplectic": False,
+                 "native": "kernel advance_sph: v += h/2 a(x, rho); D0 = D(x, v); x += h v; "
+                           "rho += h/2 (D0 + D(x', v)); v += h/2 a(x', rho')"}
+        return {**base, "integrator": integ,
+                "model": "WCSPH: Wendland C2, Tait gamma 7, Monaghan viscosity, Adami walls",
+                "model_source": "refsim.models.sph (same expressions, same operation order); "
+                                "negative pressures clamped to 0",
+                "smoothing_h": self.h, "h_over_dx": f.smoothing, "sound_speed": f.sound_speed,
+                "viscosity_alpha": f.viscosity_alpha, "rho0": f.density,
+                "gravity_2d": self.gravity.tolist(),
+                "particles": self.n_fluid, "wall_particles": self.n_wall,
+                "wall_layers": self.wall_layers,
+                "initial_conditions": "adapters.refsim_sph fluid_particles / wall_particles, "
+                                      "hydrostatic Tait density (identical to refsim's)",
+                "neighbours": "uniform grid over the bounding box, cell 2h (enlarged to fit "
+                              f"{SPH_CELLS_PER_PARTICLE} N + 64 cells), serial counting sort, "
+                              "every step; 3 x 3 cells gathered per particle",
+                "pair_sums": "gathered by each particle over its own neighbours (no atomics, "
+                             "no scatter): fluid-fluid and fluid-wall, wall-wall never",
+                "determinism": "bit-reproducible: each sum gathered by its particle in a "
+                               "fixed order (no atomics), counting sort serial; differs from "
+                               "refsim's numpy engine in summation order only",
+                **self._thread_settings(base),
+                "stages": ["gravity", "neighbours", "sph_rates", "walls_adami",
+                           "integrate:kick-drift-kick"]}
+
+
+SPH_STATS = ("steps_without_grid", "steps")
+
+
 STATS = ("dropped_contacts", "steps_without_grid", "max_passes", "steps_at_pass_cap",
          "impulses", "contacts", "steps")
 
 
 def _ndarray(ti, arr):
-    """A taichi ndarray holding `arr`: (n, 3) float64 as vec3, else by dtype."""
+    """A taichi ndarray holding `arr`: (n, 3) / (n, 2) float64 as vec3 / vec2, else by dtype."""
     arr = np.ascontiguousarray(arr)
     if arr.ndim == 2:
-        out = ti.ndarray(_RUNTIME["lib"]["vec3"], arr.shape[0])
+        out = ti.ndarray(_RUNTIME["lib"][f"vec{arr.shape[1]}"], arr.shape[0])
     else:
         dtype = {np.dtype(np.int32): ti.i32, np.dtype(np.int64): ti.i64}.get(arr.dtype, ti.f64)
         out = ti.ndarray(dtype, arr.shape[0])
