@@ -131,6 +131,10 @@ class Case:
         source = inspect.getsource(inspect.getmodule(type(self)))
         return hashlib.sha256(source.encode()).hexdigest()[:16]
 
+    def tolerance_column(self, p) -> str:
+        """The results column the tolerance bounds (by default `tolerance_norm`)."""
+        return self.tolerance_norm
+
     def extra_metrics(self, p, obs: dict, observed: dict, reference: dict) -> dict:
         """Case-specific columns (e.g. momentum_drift, penetration_max) from a whole run."""
         return {}

@@ -201,7 +201,10 @@ def test_cradle_outcome(engine_variant):
     ideal = np.zeros(5)
     ideal[-1] = p["speed"]
     departure = np.abs(v[:, 0] - ideal).max()
-    assert departure > 0.05 and not row["within_tol"]  # neither meets the ideal
+    assert departure > 0.05  # neither meets the ideal
+    # judged on conservation: the spring chain's +1 % is within 8 x the calibration residual
+    # (2e-3 per impact); the coupled solve's +13 % energy gain is not
+    assert row["within_tol"] == (engine_variant == "")
     if engine_variant == "coupled":
         assert -0.7 < v[0, 0] < -0.55 and np.mean(v[1:, 0]) == pytest.approx(0.4, abs=0.02)
 

@@ -133,7 +133,7 @@ def test_cradle_moves_the_touching_chain_as_one_body(dt):
     energy = CASE.energy(p, row["trajectory"])
     assert np.max(np.abs(energy - energy[0])) <= 1e-8 * energy[0]
     ideal = CASE.outcome(p)[0]
-    assert not row["within_tol"]
+    assert row["within_tol"]  # the cradle is judged on conservation, which the block keeps
     assert row["err_max"] == pytest.approx(np.linalg.norm(block - ideal), rel=1e-6)
 
 
