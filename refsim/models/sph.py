@@ -10,8 +10,9 @@ Model (Monaghan 1994, 2005; Becker & Teschner 2007; boundaries after Adami, Hu &
 - solid walls as fixed dummy particles whose pressure is extrapolated from the fluid,
   p_w = (sum_f p_f W_wf + g . sum_f rho_f (x_w - x_f) W_wf) / sum_f W_wf (Adami 2012, eq. 27,
   wall at rest), and density from the inverted equation of state.
-Neighbours: all pairs closer than 2h from a cell list built with a sort
-(`collisions.grid_pairs`), rebuilt every step; wall-wall pairs are dropped.
+Neighbours: all pairs closer than 2h, taken each step from a Verlet list (pairs within
+2h + 0.3h from cell lists built with a sort, `collisions.grid_pairs`), rebuilt once any
+particle has moved half the skin; wall-wall pairs are never formed.
 """
 from __future__ import annotations
 
@@ -53,21 +54,40 @@ class FluidState:
 class WCSPH:
     """Rates of change of a fluid state next to fixed wall particles."""
 
-    def __init__(self, walls, mass, h, rho0, c0, alpha, gravity):
+    def __init__(self, walls, mass, h, rho0, c0, alpha, gravity, skin=0.3):
         self.walls = np.asarray(walls, float).reshape(-1, 2)
         self.mass, self.h, self.rho0, self.c0, self.alpha = mass, h, rho0, c0, alpha
         self.g = np.asarray(gravity, float)
+        self.skin = skin * h  # Verlet-list margin beyond the support 2h
+        self._anchor, self._candidates = None, None
+        self.rebuilds = 0
 
-    def pairs(self, x):
-        """Fluid-fluid and fluid-wall pairs within 2h: (i, j, x_i - x_j, r); i is always a
-        fluid particle, j >= n_fluid is a wall particle (wall-wall pairs are never formed)."""
-        n, reach = len(x), 2.0 * self.h
+    def _build_candidates(self, x):
+        """Fluid-fluid and fluid-wall pairs within 2h + skin from the cell lists (wall-wall
+        pairs are never formed); kept until some particle has moved skin/2."""
+        n, reach = len(x), 2.0 * self.h + self.skin
         i, j = grid_pairs(x, reach)
         iw, jw = grid_cross_pairs(x, self.walls, reach)
         i, j = np.concatenate([i, iw]), np.concatenate([j, jw + n])
         d = x[i] - np.concatenate([x, self.walls])[j]
+        near = np.einsum("pk,pk->p", d, d) < reach * reach
+        self._candidates, self._anchor = (i[near], j[near]), x.copy()
+        self.rebuilds += 1
+
+    def pairs(self, x):
+        """Fluid-fluid and fluid-wall pairs within 2h: (i, j, x_i - x_j, r); i is always a
+        fluid particle, j >= n_fluid a wall particle. A Verlet list: candidates within
+        2h + skin are rebuilt only once a particle has moved more than skin/2 since the last
+        build (no pair can have closed the gap before then), so every step still sees exactly
+        the pairs within 2h."""
+        if self._anchor is None or len(self._anchor) != len(x) or np.max(
+                np.einsum("pk,pk->p", x - self._anchor, x - self._anchor)) > (
+                0.5 * self.skin) ** 2:
+            self._build_candidates(x)
+        i, j = self._candidates
+        d = x[i] - np.concatenate([x, self.walls])[j]
         r = np.sqrt(np.einsum("pk,pk->p", d, d))
-        near = r < reach
+        near = r < 2.0 * self.h
         return i[near], j[near], d[near], r[near]
 
     def wall_pressure(self, n, rho, p, i, j, d, r):
