@@ -108,6 +108,13 @@ class PybulletEngine(Engine):
     dims = (3,)
     integrators = ("symplectic_euler",)
 
+    def available(self) -> bool:
+        try:
+            _import_pybullet()
+        except ImportError:
+            return False
+        return True
+
     def supports(self, scene, integrator=None):
         reason = super().supports(scene, integrator)
         if reason:
@@ -136,30 +143,37 @@ class PybulletEngine(Engine):
 
 
 def _import_pybullet():
-    """Import lazily: refsim works without pybullet installed."""
-    import pybullet
+    """Import lazily (refsim works without pybullet installed), with its C-level
+    'pybullet build time' line kept off stdout."""
+    with _c_stdout_silenced():
+        import pybullet
     return pybullet
 
 
 @contextlib.contextmanager
 def _c_stdout_silenced():
-    """pybullet's C code prints 'pybullet build time: ...' on stdout at the first connect;
-    that line would land after `refsim run`'s last line (the run directory). Point fd 1 at
-    /dev/null around the call and flush C's stdio buffer there before restoring it."""
+    """pybullet's C code prints 'pybullet build time: ...' at import and at the first
+    connect; on stdout that line would land after `refsim run`'s last line (the run
+    directory). Point fds 1 and 2 at /dev/null around the call and flush C's stdio buffers
+    there before restoring them (Python exceptions still propagate)."""
     import ctypes
     sys.stdout.flush()
-    saved = os.dup(1)
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
     try:
         with open(os.devnull, "w") as null:
             os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
             yield
             try:
                 ctypes.CDLL(None).fflush(None)
             except (OSError, AttributeError):
                 pass
     finally:
-        os.dup2(saved, 1)
-        os.close(saved)
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in saved:
+            os.close(fd)
 
 
 def _contact_mismatch(scene):

@@ -91,13 +91,13 @@ def cmd_list() -> int:
     print("cases:")
     for name in case_names():
         case = get_case(name)
-        print(f"  {name:14s} {case.description}")
-        print(f"  {'':14s} variants: {', '.join(case.variants)}")
+        print(f"  {name:18s} {case.description}")
+        print(f"  {'':18s} variants: {', '.join(case.variants)}")
     print("engines:")
     for name in engine_names():
         eng = get_engine(name)
         state = f"available {eng.version()}" if eng.available() else "unavailable"
-        print(f"  {name:14s} {state:22s} integrators: {', '.join(eng.integrators)}")
+        print(f"  {name:18s} {state:22s} integrators: {', '.join(eng.integrators)}")
     print("integrators:")
     for name in INTEGRATORS:
         d = get_integrator(name).describe()
