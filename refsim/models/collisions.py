@@ -142,16 +142,23 @@ def resolve_pairs(v, w, inv_m, inv_i, radii, i, j, n, e, mu, max_iter=1000, tol=
         if not act.any():
             return passes - 1
         act &= _disjoint(i, j, act, len(v))
-        pn = np.where(act, -(1.0 + e) * un / k_n, 0.0)
-        impulse = pn[:, None] * n
-        if mu > 0:
-            ut = u - un[:, None] * n
-            slide = np.sqrt(np.einsum("pk,pk->p", ut, ut))
-            tdir = ut / np.where(slide > 0, slide, 1.0)[:, None]
-            pt = np.where(act, np.minimum(slide / k_t, mu * pn), 0.0)
-            impulse = impulse - pt[:, None] * tdir
+        impulse = _contact_impulse(u, un, n, act, e, k_n, k_t, mu)
         _apply(v, w, inv_m, inv_i, i, j, ri, rj, impulse)
     return max_iter
+
+
+def _contact_impulse(u, un, n, act, e, k_n, k_t, mu):
+    """Impulse of active contacts: Newton's restitution along n, and (mu > 0) the Coulomb
+    stick/slide tangential part, min(|u_t| / k_t, mu P_n) against the sliding direction."""
+    pn = np.where(act, -(1.0 + e) * un / k_n, 0.0)
+    impulse = pn[:, None] * n
+    if mu > 0:
+        ut = u - un[:, None] * n
+        slide = np.sqrt(np.einsum("pk,pk->p", ut, ut))
+        tdir = ut / np.where(slide > 0, slide, 1.0)[:, None]
+        pt = np.where(act, np.minimum(slide / k_t, mu * pn), 0.0)
+        impulse = impulse - pt[:, None] * tdir
+    return impulse
 
 
 def _disjoint(i, j, act, n):
@@ -185,15 +192,7 @@ def resolve_walls(v, w, masses, inv_i, radii, s, wall_normals, e, mu, tol=1e-12)
     un = np.einsum("pk,pk->p", u, n)
     act = un < -tol * (1.0 + np.abs(un))
     inv_m = 1.0 / masses[s]
-    pn = np.where(act, -(1.0 + e) * un / inv_m, 0.0)
-    impulse = pn[:, None] * n
-    if mu > 0:
-        ut = u - un[:, None] * n
-        slide = np.sqrt(np.einsum("pk,pk->p", ut, ut))
-        tdir = ut / np.where(slide > 0, slide, 1.0)[:, None]
-        k_t = inv_m + radii[s] ** 2 * inv_i[s]
-        pt = np.where(act, np.minimum(slide / k_t, mu * pn), 0.0)
-        impulse = impulse - pt[:, None] * tdir
+    impulse = _contact_impulse(u, un, n, act, e, inv_m, inv_m + radii[s] ** 2 * inv_i[s], mu)
     _scatter(v, s, inv_m[:, None] * impulse)
     _scatter(w, s, inv_i[s][:, None] * np.cross(r, impulse))
     return impulse.sum(axis=0)
