@@ -44,7 +44,8 @@ class FluidSim(Sim):
         self.mass = fluid.density * fluid.spacing ** 2
         self.h = fluid.smoothing * fluid.spacing
         self.model = WCSPH(wall_particles(fluid), self.mass, self.h, fluid.density,
-                           fluid.sound_speed, fluid.viscosity_alpha, g)
+                           fluid.sound_speed, fluid.viscosity_alpha, g,
+                           no_slip=fluid.no_slip)
         self.state = FluidState(x=x, v=np.zeros_like(x), rho=rho)
         self.geom, self.acc = self.model.start(self.state)
 
@@ -66,6 +67,8 @@ class FluidSim(Sim):
                 "model": "WCSPH: Wendland C2, Tait gamma 7, Monaghan viscosity, Adami walls",
                 "smoothing_h": self.h, "h_over_dx": f.smoothing, "sound_speed": f.sound_speed,
                 "viscosity_alpha": f.viscosity_alpha, "rho0": f.density,
+                "walls": "no-slip (viscosity on wall pairs)" if f.no_slip else
+                "free-slip (pressure only)",
                 "particles": len(self.state.x), "wall_particles": len(self.model.walls),
                 "wall_layers": WALL_LAYERS, "neighbours": "cell list by sort, every step",
                 "dtype": "float64", "threads": 1,

@@ -20,6 +20,14 @@ fluid, max and mean over the run), mechanical energy (kinetic + potential, `ener
 its largest change over the potential energy released, M g a / 2... scaled by the column's
 potential energy M g H / 2).
 
+Walls: dummy particles (Adami 2012). By default the artificial viscosity also acts between
+fluid and wall particles: a numerical no-slip bed whose effective viscosity alpha c0 h / 8
+(7e-5 m^2/s at a/dx = 40, 70 x water's) slows the thin surge front, less as dx shrinks.
+`walls=free_slip` (variant `res40_free_slip`) acts through pressure only: the inviscid limit,
+whose front runs at Ritter's dZ/dT = 2, faster than the experiment's 1.66 late on (bed
+friction and the gate in the experiment). Measured at a/dx = 40 (refsim): no-slip RMS 0.18
+(front late behind the data), free-slip 0.33 (ahead): the data lie between the two limits.
+
 Sub-case `hydrostatic`: a closed tank (width a, depth H = a), no release. After settling (the
 second half of the run) the bed pressure, averaged over that half (WCSPH pressure carries
 acoustic noise, reported as `bed_pressure_noise`, its standard deviation / rho0 g H), must be
@@ -60,11 +68,13 @@ class DamBreak(Case):
         "g": Param(9.81, 0.0, 1e3, "m/s^2", low_inclusive=False),
         "mach": Param(0.1, 0.0, 0.5, "sqrt(2 g H) / c0", low_inclusive=False),
         "alpha": Param(0.02, 0.0, 1.0, "Monaghan artificial viscosity"),
+        "walls": Param("no_slip", choices=("no_slip", "free_slip")),
         "smoothing": Param(1.3, 1.0, 2.0, "h / dx"),
         "cfl": Param(0.25, 0.0, 0.5, "dt = cfl h / c0", low_inclusive=False),
         "t_end_T": Param(9.5, 0.0, 100.0, "duration in T = t sqrt(2g/a)", low_inclusive=False),
     }
-    variants = {"res20": {}, "res40": {"resolution": 40},
+    variants = {"res20": {}, "res40": {"resolution": 40}, "res80": {"resolution": 80},
+                "res40_free_slip": {"resolution": 40, "walls": "free_slip"},
                 "hydrostatic": {"layout": "hydrostatic", "t_end_T": 20.0}}
     quick_variants = ("res20",)
     default_variants = ("res20", "hydrostatic")  # res40 (minutes) is run by name
@@ -95,7 +105,7 @@ class DamBreak(Case):
         fluid = FluidBlock(lower=(0.0, 0.0), upper=(a, depth), spacing=self.spacing(p),
                            tank_width=width, tank_height=1.25 * depth, density=1000.0,
                            sound_speed=self.sound_speed(p), viscosity_alpha=p["alpha"],
-                           smoothing=p["smoothing"])
+                           smoothing=p["smoothing"], no_slip=p["walls"] == "no_slip")
         return Scene(bodies=(), fluid=fluid, gravity=(0.0, -p["g"], 0.0), dim=2,
                      meta={"layout": p["layout"]})
 
@@ -202,6 +212,11 @@ class DamBreak(Case):
                        density_drift=float(abs(np.mean(obs["rho"][-1]) / np.mean(
                            obs["rho"][0]) - 1.0)))
         return out
+
+    def target_error(self, p):
+        """0.15 RMS in Z (issue 5's bar, inside the experiment's own spread); 5 % bed pressure
+        for the hydrostatic tank."""
+        return 0.05 if p["layout"] == "hydrostatic" else 0.15
 
     # -- tolerance ---------------------------------------------------------------------------
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):

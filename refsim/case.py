@@ -115,6 +115,11 @@ class Case:
         """Size of the motion in the observable's units (amplitude, release angle, ...)."""
         return 1.0
 
+    def target_error(self, p) -> float:
+        """The report's default accuracy goal in the tolerance column's units: the cheapest
+        configuration reaching it is recommended. 1e-4 of the motion unless a case says."""
+        return 1e-4 * self.motion_scale(p)
+
     # -- shared -------------------------------------------------------------------------------
     def error_floor(self, p) -> float:
         """Errors below this are round-off: left out of convergence-order fits."""

@@ -1,4 +1,4 @@
-"""`refsim list | run | bench`: the command line.
+"""`refsim list | run | report | stress | compare | bench`: the command line.
 
 Bad input (an unknown name, dt <= 0, a non-finite or out-of-range parameter) prints one line
 naming the parameter and the valid values, and exits with code 2.
@@ -27,6 +27,7 @@ def _pin_threads(argv) -> int:
 THREADS = _pin_threads(sys.argv)
 
 import argparse  # noqa: E402
+import importlib  # noqa: E402
 import shlex  # noqa: E402
 
 
@@ -54,13 +55,26 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--param", action="append", default=[],
                      help="case parameter override NAME=VALUE or CASE.NAME=VALUE")
     run.add_argument("--quick", action="store_true", help="reference dt and default variants")
+    run.add_argument("--full", action="store_true", help="every engine formulation over the "
+                     "whole dt sweep (by default alternatives run at the reference dt)")
     run.add_argument("--out", default=None, help="runs directory (default reports/runs)")
     run.add_argument("--repeats", default="3", help="timing repeats (>= 1)")
     run.add_argument("--resume", default=None, help="finish the interrupted run RUN_ID")
     run.add_argument("--threads", default="1", help="BLAS/OpenMP threads (>= 1)")
+    run.add_argument("--no-report", action="store_true", help="skip writing the report")
     bench = sub.add_parser("bench", help="in-house engine speed figures (one core)")
     bench.add_argument("--quick", action="store_true", help="smaller batch, fewer repeats")
+    for name, text in SUBCOMMANDS.items():
+        module = importlib.import_module(f"refsim.{name}")
+        module.add_arguments(sub.add_parser(name, help=text))
     return parser
+
+
+# commands whose module offers add_arguments(parser) and main(args) -> exit code
+SUBCOMMANDS = {
+    "report": "report.md and a self-contained report.html from a stored run",
+    "compare": "row-by-row error and time ratios of two stored runs; exit 1 on a regression",
+}
 
 
 def main(argv=None) -> int:
@@ -73,6 +87,8 @@ def main(argv=None) -> int:
         if args.command == "bench":
             from refsim.bench import main as bench_main
             return bench_main(quick=args.quick)
+        if args.command in SUBCOMMANDS:
+            return importlib.import_module(f"refsim.{args.command}").main(args)
     except ValueError as exc:
         _fail(str(exc).splitlines()[0])
     except KeyboardInterrupt:
@@ -139,6 +155,8 @@ def cmd_run(args, argv) -> int:
     from refsim import runner, store
     from refsim.summary import print_summary, progress_printer
 
+    import time
+    start = time.perf_counter()
     repeats = _positive_int("--repeats", args.repeats)
     root = Path(args.out) if args.out else store.DEFAULT_ROOT
     if args.resume:
@@ -147,14 +165,27 @@ def cmd_run(args, argv) -> int:
     else:
         spec = {"cases": args.case or case_names(), "engines": args.engine,
                 "integrators": args.integrator, "dts": args.dt, "quick": args.quick,
+                "full": args.full,
                 "variants": args.variant}
         spec["params"] = _params(args.param, spec["cases"])
     jobs = runner.expand(**spec)
     if not args.resume:
         st = store.RunStore.create(root, _manifest(spec, argv, jobs))
+    before = len(st.rows)
     table = runner.run_matrix(jobs, st, repeats=repeats, progress=progress_printer())
-    st.update_manifest(status="complete")
+    wall = time.perf_counter() - start
+    engine_s = float(sum(r["engine_s"] for r in st.rows[before:]))
+    st.update_manifest(status="complete", wall_s=wall, engine_s=engine_s,
+                       harness_overhead=(wall - engine_s) / wall if wall > 0 else 0.0)
     print_summary(table)
+    if not args.no_report:
+        from refsim.report import write_report
+        t0 = time.perf_counter()
+        md, _ = write_report(st.dir)
+        print(f"\nreport: {md} and report.html ({time.perf_counter() - t0:.1f} s)")
+    print(f"\nrun time {wall:.1f} s: engines (setup, compile, stepping, observation) "
+          f"{engine_s:.1f} s, harness overhead {wall - engine_s:.1f} s "
+          f"({100 * (wall - engine_s) / wall:.1f} %)")
     print(st.dir)
     return 0
 

@@ -21,6 +21,7 @@ from refsim.metrics import convergence_order, energy_drift, error_norms
 
 STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
 LONG_RUN_S = 2.0  # accuracy passes longer than this give the timing sample themselves
+BUDGET_S = 0.5  # a timing pass stops repeating once its runs have taken this long
 
 
 @dataclass(frozen=True)
@@ -53,8 +54,12 @@ def check_dt(dt) -> float:
 
 
 def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, variants=None,
-           params=None) -> list[Job]:
-    """Every job of the matrix; unknown names raise ValueError naming the valid ones."""
+           params=None, full=False) -> list[Job]:
+    """Every job of the matrix; unknown names raise ValueError naming the valid ones.
+
+    The dt sweep runs each engine's default formulation; its alternatives (the KKT and penalty
+    pendulum, taichi's kernel-launch-per-step, MuJoCo's coupled contacts...) compare terms at
+    the case's reference dt only, unless `full` (or explicit `dts`) asks for the whole sweep."""
     cases = list(cases or case_names())
     for name in cases:
         get_case(name)
@@ -80,10 +85,12 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
             overrides = tuple(sorted((params or {}).get(cname, {}).items()))
             p = case.variant_params(variant, dict(overrides))
             scene = case.scene(p)
-            sweep = dts or ([case.reference_dt(p)] if quick else case.dts(p))
+            ref = [case.reference_dt(p)]
+            sweep = dts or (ref if quick else case.dts(p))
+            alt_sweep = sweep if (full or dts) else ref
             for engine in engines:
-                jobs.extend(Job(**{**asdict(j), "params": overrides}) for j in
-                            _engine_jobs(cname, variant, engine, scene, integrators, sweep))
+                jobs.extend(Job(**{**asdict(j), "params": overrides}) for j in _engine_jobs(
+                    cname, variant, engine, scene, integrators, sweep, alt_sweep))
     return jobs
 
 
@@ -96,7 +103,7 @@ def _variants(case, variants, quick):
     return list(case.default_variants or case.variants)
 
 
-def _engine_jobs(cname, variant, engine, scene, integrators, sweep):
+def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep):
     if not engine.available() or engine.supports(scene) is not None:
         return [Job(cname, variant, engine.name, "", "", float("nan"))]
     specs = [i for i in (integrators or engine.integrators) if i.partition(":")[0]
@@ -104,8 +111,10 @@ def _engine_jobs(cname, variant, engine, scene, integrators, sweep):
     if not specs:  # none of the asked integrators runs this scene: one row says why
         spec = (integrators or engine.integrators)[0]
         return [Job(cname, variant, engine.name, "", spec, float("nan"))]
+    forms = engine.variants(scene)
     return [Job(cname, variant, engine.name, ev, spec, dt)
-            for ev in engine.variants(scene) for spec in specs for dt in sweep]
+            for k, ev in enumerate(forms) for spec in specs
+            for dt in (sweep if k == 0 else alt_sweep)]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -118,26 +127,44 @@ def _blank_row(job: Job, run_id: str) -> dict:
     for col in ("err_max", "err_final", "err_rms", "energy_drift", "constraint_drift",
                 "momentum_drift", "penetration_max", "conservation_err",
                 "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step",
-                "tolerance", "diverged_t"):
+                "tolerance", "diverged_t", "wall_s", "engine_s"):
         row[col] = float("nan")
     row.update(repeats=0, settings="{}", within_tol=False, tol_capped=False, tol_reason="",
                samples=0, timing="")
     return row
 
 
-def run_job(job: Job, run_id: str = "", repeats: int = 3, budget_s: float = 2.0,
+def run_job(job: Job, run_id: str = "", repeats: int = 3, budget_s: float = BUDGET_S,
             keep_trajectory: bool = False) -> dict:
     """One row. repeats=0 skips the timing pass; keep_trajectory adds the stacked observations
     under "trajectory" (for tests and plots; never stored in the table)."""
     row = _blank_row(job, run_id)
+    t0 = time.perf_counter()
+    clock = EngineClock()
     try:
-        _run_job(job, row, repeats, budget_s, keep_trajectory)
+        _run_job(job, row, repeats, budget_s, keep_trajectory, clock)
     except Exception as exc:  # a failure is a row, never a crash of the sweep
         row.update(status="failed", reason=f"{type(exc).__name__}: {exc}".splitlines()[0])
+    row.update(wall_s=time.perf_counter() - t0, engine_s=clock.total)
     return row
 
 
-def _run_job(job, row, repeats, budget_s, keep_trajectory):
+class EngineClock:
+    """Time spent inside engine calls (build, step, observe, close) in both passes: the rest
+    of a row's wall time is the harness's own (references, metrics, checks, storage)."""
+
+    def __init__(self):
+        self.total = 0.0
+
+    def call(self, fn, *args):
+        t0 = time.perf_counter()
+        try:
+            return fn(*args)
+        finally:
+            self.total += time.perf_counter() - t0
+
+
+def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
     case, engine = get_case(job.case), get_engine(job.engine)
     p = case.variant_params(job.variant, dict(job.params))
     scene = case.scene(p)
@@ -152,11 +179,11 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory):
     steps = int(round(case.t_end(p) / job.dt))
     stride = max(1, int(round(case.sample_dt(p) / job.dt)))
     row.update(steps=steps, t_end=steps * job.dt)
-    sim, setup_s = _build(engine, scene, job)
+    sim, setup_s = clock.call(_build, engine, scene, job)
     row.update(setup_s=setup_s, compile_s=sim.compile_s, settings=json.dumps(sim.settings()),
                nominal_order=_nominal_order(sim, job))
-    obs, diverged, stepping_s = _accuracy_pass(case, p, sim, steps, stride)
-    sim.close()
+    obs, diverged, stepping_s = _accuracy_pass(case, p, sim, steps, stride, clock)
+    clock.call(sim.close)
     stacked = {k: np.array([o[k] for o in obs]) for k in obs[0]}
     if diverged:
         row.update(status="diverged", reason=diverged[0], diverged_t=diverged[1],
@@ -165,6 +192,8 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory):
     row.update(_accuracy_metrics(case, p, stacked), status="ok", samples=len(obs))
     if keep_trajectory:
         row["trajectory"] = stacked
+    if math.isclose(job.dt, case.reference_dt(p), rel_tol=1e-9):
+        row["series"] = series(case, p, stacked)
     tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
                               job.engine_variant, json.loads(row["settings"]))
     row["tol_capped"] = bool(tol >= case.motion_scale(p))
@@ -181,7 +210,7 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory):
         row.update(step_s=stepping_s, step_s_median=stepping_s, repeats=1,
                    us_per_step=stepping_s / steps * 1e6, timing="accuracy-pass step calls")
     elif repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
-        row.update(_timing_pass(engine, scene, job, steps, repeats, budget_s),
+        row.update(clock.call(_timing_pass, engine, scene, job, steps, repeats, budget_s),
                    timing="fresh models, min of repeats")
 
 
@@ -201,11 +230,11 @@ def _nominal_order(sim, job):
         return float("nan")
 
 
-def _accuracy_pass(case, p, sim, steps, stride):
+def _accuracy_pass(case, p, sim, steps, stride, clock):
     """Observe at t = 0 and every `stride` steps; stop at the first sign of divergence.
     Returns the observations, the divergence (reason, t) or None, and the time spent inside
     `Sim.step` calls only."""
-    obs = [sim.observe()]
+    obs = [clock.call(sim.observe)]
     e_scale = case.energy_scale(p)
     done, stepping = 0, 0.0
     while done < steps:
@@ -214,12 +243,33 @@ def _accuracy_pass(case, p, sim, steps, stride):
         sim.step(n)
         stepping += time.perf_counter() - t0
         done += n
-        o = sim.observe()
+        o = clock.call(sim.observe)
         obs.append(o)
         why = _divergence(case, p, sim, o, obs[0], e_scale)
         if why:
+            clock.total += stepping
             return obs, (f"{why} at t={o['t']:.6g} s", o["t"]), stepping
+    clock.total += stepping
     return obs, None, stepping
+
+
+SERIES_POINTS = 400  # samples kept per stored time series (for the report's plots)
+
+
+def series(case, p, stacked) -> dict:
+    """Energy and the 1-D observables against time, at most SERIES_POINTS samples: what the
+    report plots at the reference dt (the results table keeps only the norms)."""
+    t = np.asarray(stacked["t"], float)
+    keep = np.unique(np.linspace(0, len(t) - 1, min(len(t), SERIES_POINTS)).astype(int))
+    out = {"t": t[keep].tolist()}
+    energy = case.energy(p, stacked)
+    if energy is not None:
+        out["energy"] = np.asarray(energy, float)[keep].tolist()
+    for name, values in case.observables(p, stacked).items():
+        values = np.asarray(values, float)
+        if values.shape == t.shape:
+            out[name] = values[keep].tolist()
+    return out
 
 
 def _divergence(case, p, sim, o, first, e_scale):
@@ -276,7 +326,7 @@ def _timing_pass(engine, scene, job, steps, repeats, budget_s):
 # ---------------------------------------------------------------------------------------------
 # The matrix
 # ---------------------------------------------------------------------------------------------
-def run_matrix(jobs, store, repeats=3, budget_s=2.0, progress=None) -> pd.DataFrame:
+def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None) -> pd.DataFrame:
     run_id = store.dir.name
     done = store.done_keys()
     from refsim.store import row_key
@@ -284,7 +334,11 @@ def run_matrix(jobs, store, repeats=3, budget_s=2.0, progress=None) -> pd.DataFr
     for k, job in enumerate(todo):
         if progress:
             progress(k, len(todo), job)
-        store.add(run_job(job, run_id, repeats, budget_s))
+        row = run_job(job, run_id, repeats, budget_s)
+        trace = row.pop("series", None)
+        if trace is not None:
+            store.add_series(row, trace)
+        store.add(row)
     if progress:
         progress(len(todo), len(todo), None)
     table = with_orders(pd.DataFrame(store.rows))

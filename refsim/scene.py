@@ -139,7 +139,10 @@ class FluidBlock:
     """A 2D block of liquid [x0, x1] x [y0, y1] (m) sampled at `spacing`, at rest and in
     hydrostatic balance at t = 0, inside a rectangular `tank` [0, tank_width] x [0,
     tank_height] with solid walls. Weakly compressible: sound speed c0; Monaghan's artificial
-    viscosity alpha; smoothing length h = smoothing * spacing."""
+    viscosity alpha; smoothing length h = smoothing * spacing. `no_slip`: the artificial
+    viscosity also acts between fluid and wall particles (a numerical no-slip wall whose
+    effective viscosity alpha c0 h / 8 shrinks with the resolution); otherwise the walls act
+    through pressure only (free-slip)."""
 
     lower: tuple[float, float]
     upper: tuple[float, float]
@@ -150,8 +153,10 @@ class FluidBlock:
     sound_speed: float = 20.0
     viscosity_alpha: float = 0.02
     smoothing: float = 1.3
+    no_slip: bool = False
 
     def __post_init__(self):
+        _set(self, "no_slip", bool(self.no_slip))
         for name in ("spacing", "tank_width", "tank_height", "density", "sound_speed",
                      "smoothing"):
             _set(self, name, _positive(f"fluid.{name}", getattr(self, name)))

@@ -13,12 +13,15 @@ import secrets
 import subprocess
 import sys
 import tempfile
+import time
 from datetime import datetime, timezone
 from pathlib import Path
 
 import pandas as pd
 
 DEFAULT_ROOT = Path("reports") / "runs"
+JOURNAL = "rows.jsonl"
+SERIES = "series.jsonl"
 KEY = ["case", "variant", "engine", "engine_variant", "integrator", "dt"]
 
 
@@ -39,9 +42,12 @@ def atomic_write(path: Path, text: str) -> None:
 
 
 class RunStore:
+    WRITE_EVERY_S = 5.0  # results.csv refresh interval while rows arrive
+
     def __init__(self, run_dir: Path):
         self.dir = Path(run_dir)
         self.rows: list[dict] = []
+        self._written = time.monotonic()
 
     @classmethod
     def create(cls, root: Path, manifest: dict) -> "RunStore":
@@ -56,7 +62,9 @@ class RunStore:
         store = cls(run_dir)
         if not (store.dir / "manifest.json").exists():
             raise ValueError(f"run must be a stored run directory, no manifest in {store.dir}")
-        if (store.dir / "results.csv").exists():
+        if (store.dir / JOURNAL).exists():
+            store.rows = read_journal(store.dir / JOURNAL)
+        elif (store.dir / "results.csv").exists():
             store.rows = load_results(store.dir).to_dict("records")
         return store
 
@@ -75,9 +83,20 @@ class RunStore:
 
     def add(self, row: dict) -> None:
         self.rows.append(row)
-        self.write_table(pd.DataFrame(self.rows))
+        with open(self.dir / JOURNAL, "a") as handle:
+            handle.write(json.dumps(row, default=_plain) + "\n")
+            handle.flush()
+        if time.monotonic() - self._written > self.WRITE_EVERY_S:
+            self.write_table(pd.DataFrame(self.rows))
+
+    def add_series(self, row: dict, trace: dict) -> None:
+        """Time series of one row (see runner.series), appended to `series.jsonl`."""
+        line = json.dumps({"key": list(row_key(row)), **trace}, default=_plain)
+        with open(self.dir / SERIES, "a") as handle:
+            handle.write(line + "\n")
 
     def write_table(self, table: pd.DataFrame) -> None:
+        self._written = time.monotonic()
         atomic_write(self.dir / "results.csv", table.to_csv(index=False, na_rep="nan"))
         try:
             import pyarrow  # noqa: F401
@@ -86,6 +105,28 @@ class RunStore:
         tmp = self.dir / ".results.parquet.tmp"
         table.to_parquet(tmp, index=False)
         os.replace(tmp, self.dir / "results.parquet")
+
+
+def _plain(value):
+    """JSON for numpy scalars in a row."""
+    return value.item() if hasattr(value, "item") else str(value)
+
+
+def read_journal(path: Path) -> list[dict]:
+    """Rows of `rows.jsonl`; a last line cut short by an interruption is dropped."""
+    rows = []
+    for line in Path(path).read_text().splitlines():
+        try:
+            rows.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return rows
+
+
+def load_series(run_dir: Path) -> dict:
+    """{row key: {"t": [...], "energy": [...], observable: [...]}} of a stored run."""
+    path = Path(run_dir) / SERIES
+    return {tuple(r.pop("key")): r for r in read_journal(path)} if path.exists() else {}
 
 
 def _key_value(value):

@@ -1,12 +1,23 @@
 """Tolerance checks for pytest: run a case on an engine and assert what the case promises.
 
+One check:
+
     from refsim.testing import assert_within_tolerance
     def test_my_engine_pendulum():
         assert_within_tolerance("pendulum", "my_engine", "symplectic_euler")
+
+The whole suite for one engine (one test per case x variant x engine variant x integrator it
+supports, at the case's reference dt):
+
+    from refsim.testing import engine_suite
+    test_my_engine = engine_suite(MyEngine)      # or a registered name, or an instance
 """
 from __future__ import annotations
 
-from refsim.runner import Job, run_job
+import math
+
+from refsim.engine import Engine
+from refsim.runner import Job, expand, run_job
 
 
 def accuracy(case, variant, engine, integrator, dt, engine_variant="", **params) -> dict:
@@ -40,6 +51,7 @@ def assert_within_tolerance(case, engine, integrator, variant=None, engine_varia
     from cases import get_case
     c = get_case(case)
     variant = variant or next(iter(c.variants))
+    __tracebackhide__ = True  # pytest shows the failing test, not this helper
     p = c.variant_params(variant, params)
     row = accuracy(case, variant, engine, integrator, dt or c.reference_dt(p), engine_variant,
                    **params)
@@ -79,3 +91,123 @@ def spring_stable(engine, integrator, y, energy_factor=1e4, periods=100, engine_
         return True
     finally:
         sim.close()
+
+
+# ---------------------------------------------------------------------------------------------
+# The whole suite for one engine
+# ---------------------------------------------------------------------------------------------
+_FACTORIES: dict = {}  # engine name -> zero-argument callable, for classes and instances
+_FACTORY_PREFIX = "engine_factory_"
+
+
+def __getattr__(attr):
+    """Registry targets "refsim.testing:engine_factory_<name>" resolve to `_FACTORIES[name]`
+    (adapters.get_engine calls the target with no arguments)."""
+    name = attr[len(_FACTORY_PREFIX):] if attr.startswith(_FACTORY_PREFIX) else None
+    if name in _FACTORIES:
+        return _FACTORIES[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {attr!r}")
+
+
+def resolve_engine(engine) -> str:
+    """The registry name of `engine`: a registered name, an `Engine` subclass or an instance.
+
+    Rules: a name must already be registered (adapters.register(name, "module:Class")). A
+    class or instance is registered under its `name` attribute for the rest of the process (a
+    class is instantiated with no arguments; an instance is used as given). A name registered
+    by anything else (a built-in engine, an adapters.register call) is never replaced: passing
+    a different class under that name raises ValueError. Passing a class or instance again
+    under a name this function registered replaces it (a module imported twice)."""
+    from adapters import engine_names, get_engine, register
+
+    if isinstance(engine, str):
+        get_engine(engine)  # ValueError naming the registered engines
+        return engine
+    if isinstance(engine, type) and issubclass(engine, Engine):
+        cls, factory = engine, engine
+    elif isinstance(engine, Engine):
+        cls, factory = type(engine), (lambda: engine)
+    else:
+        raise ValueError(f"engine must be a registered engine name, an Engine subclass or an "
+                         f"Engine instance, got {engine!r}")
+    name = cls.name
+    if name == Engine.name or not name or ":" in name:
+        raise ValueError(f"engine {cls.__qualname__}.name must be set to a distinct name "
+                         f"without ':', got {name!r}")
+    if name in engine_names() and name not in _FACTORIES and type(get_engine(name)) is not cls:
+        raise ValueError(f"engine name {name!r} is already registered to "
+                         f"{type(get_engine(name)).__qualname__}: give "
+                         f"{cls.__qualname__} a distinct `name`")
+    if name in _FACTORIES or name not in engine_names():
+        _FACTORIES[name] = factory
+        register(name, f"{__name__}:{_FACTORY_PREFIX}{name}")
+    return name
+
+
+def suite(engine, cases=None) -> list[Job]:
+    """Every job `engine` runs in the tolerance suite: one per case x variant x engine variant
+    x integrator, at the case's reference dt, expanded by `refsim.runner.expand` (so exactly
+    the rows `refsim run` would make at that dt).
+
+    Rules: `engine` as for `resolve_engine`; `cases` are case names (default: every case);
+    the variants are those a plain `refsim run` covers (`case.default_variants`, else all);
+    the integrators are the engine's own (`engine.integrators`) that `engine.supports(scene,
+    integrator)` accepts. Scenes the engine does not support, and every scene when its
+    package is not installed, give no job."""
+    from cases import case_names, get_case
+
+    name = resolve_engine(engine)
+    cases = [cases] if isinstance(cases, str) else list(cases or case_names())
+    jobs = []
+    for cname in cases:
+        case = get_case(cname)
+        for variant in case.default_variants or case.variants:
+            dt = case.reference_dt(case.variant_params(variant))
+            jobs += [j for j in expand([cname], [name], dts=[dt], variants=[variant])
+                     if math.isfinite(j.dt)]
+    return jobs
+
+
+def job_id(job: Job) -> str:
+    """A readable test id: case/variant[-engine variant]-integrator."""
+    ev = f"-{job.engine_variant}" if job.engine_variant else ""
+    return f"{job.case}/{job.variant}{ev}-{job.integrator}"
+
+
+def check(job: Job) -> dict:
+    """Assert one suite job within its case's tolerance (AssertionError naming the error, the
+    tolerance and its reason otherwise); returns the results row."""
+    __tracebackhide__ = True
+    return assert_within_tolerance(job.case, job.engine, job.integrator, job.variant,
+                                   job.engine_variant, job.dt, **dict(job.params))
+
+
+def suite_params(engine, cases=None) -> list:
+    """`suite` as pytest params with readable ids; one skipped param saying why when the
+    engine runs none of the cases (not installed, or no supported scene)."""
+    import pytest
+
+    jobs = suite(engine, cases)
+    if jobs:
+        return [pytest.param(j, id=job_id(j)) for j in jobs]
+    name = resolve_engine(engine)
+    from adapters import get_engine
+    why = ("is not installed" if not get_engine(name).available()
+           else f"supports none of the scenes of {cases or 'any case'}")
+    return [pytest.param(None, id="no-jobs", marks=pytest.mark.skip(reason=f"{name} {why}"))]
+
+
+def engine_suite(engine, cases=None):
+    """A pytest test function parametrised over `suite(engine, cases)`:
+
+        test_my_engine = engine_suite("my_engine")     # or engine_suite(MyEngine)
+
+    Works with plain pytest (no plugin needed); the `refsim_engine` marker of
+    refsim.pytest_plugin is the same suite for a test function written by hand."""
+    import pytest
+
+    @pytest.mark.parametrize("refsim_job", suite_params(engine, cases))
+    def test_engine_suite(refsim_job):
+        check(refsim_job)
+
+    return test_engine_suite

@@ -80,6 +80,9 @@ def test_resume_finishes_without_redoing_rows(tmp_path):
     table = load_results(run_dir)
     kept = table.iloc[:2]
     kept.to_csv(run_dir / "results.csv", index=False, na_rep="nan")  # as if interrupted
+    journal = (run_dir / "rows.jsonl").read_text().splitlines()
+    # two finished rows and a third cut off mid-write
+    (run_dir / "rows.jsonl").write_text("\n".join(journal[:2]) + "\n" + journal[2][:40])
     manifest = json.loads((run_dir / "manifest.json").read_text())
     (run_dir / "manifest.json").write_text(json.dumps({**manifest, "status": "running"}))
     out = refsim("run", "--resume", run_dir.name, "--out", str(tmp_path))

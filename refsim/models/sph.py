@@ -6,7 +6,7 @@ Model (Monaghan 1994, 2005; Becker & Teschner 2007; boundaries after Adami, Hu &
 - Tait equation of state p = B ((rho/rho0)^7 - 1), B = rho0 c0^2 / 7;
 - momentum dv_i/dt = -sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad_i W_ij + g, with
   Monaghan's artificial viscosity Pi_ij = -alpha c0 h (v_ij . r_ij) / (rho_ij (r^2 + 0.01 h^2))
-  for approaching pairs;
+  for approaching pairs (fluid-fluid only unless the walls are no-slip);
 - solid walls as fixed dummy particles whose pressure is extrapolated from the fluid,
   p_w = (sum_f p_f W_wf + g . sum_f rho_f (x_w - x_f) W_wf) / sum_f W_wf (Adami 2012, eq. 27,
   wall at rest), and density from the inverted equation of state.
@@ -54,10 +54,11 @@ class FluidState:
 class WCSPH:
     """Rates of change of a fluid state next to fixed wall particles."""
 
-    def __init__(self, walls, mass, h, rho0, c0, alpha, gravity, skin=0.3):
+    def __init__(self, walls, mass, h, rho0, c0, alpha, gravity, skin=0.3, no_slip=False):
         self.walls = np.asarray(walls, float).reshape(-1, 2)
         self.mass, self.h, self.rho0, self.c0, self.alpha = mass, h, rho0, c0, alpha
         self.g = np.asarray(gravity, float)
+        self.no_slip = bool(no_slip)
         self.skin = skin * h  # Verlet-list margin beyond the support 2h
         self._anchor, self._candidates = None, None
         self.rebuilds = 0
@@ -128,7 +129,8 @@ class WCSPH:
         v_all = np.concatenate([v, np.zeros_like(self.walls)])
         vr = np.einsum("pk,pk->p", v_all[i] - v_all[j], d)
         mu = self.h * vr / (r * r + 0.01 * self.h * self.h)
-        visc = np.where(vr < 0, -self.alpha * self.c0 * mu / (0.5 * (rho_all[i] + rho_all[j])),
+        approaching = (vr < 0) if self.no_slip else (vr < 0) & (j < n)
+        visc = np.where(approaching, -self.alpha * self.c0 * mu / (0.5 * (rho_all[i] + rho_all[j])),
                         0.0)
         coef = self.mass * (p_all[i] / rho_all[i] ** 2 + p_all[j] / rho_all[j] ** 2 + visc)
         force = -coef[:, None] * grad  # on i; the reaction on fluid j is -force

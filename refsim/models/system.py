@@ -20,6 +20,8 @@ class ParticleSystem:
         self.inv_m = (1.0 / self.masses)[:, None]
         self.weight = self.masses[:, None] * self.gravity  # (nbody, 3)
         self.g_accel = np.broadcast_to(self.gravity, (self.nbody, 3)).copy()
+        self.g_flat = self.g_accel.reshape(-1)
+        self.g_flat.flags.writeable = False  # shared by every call below: never written
         self.velocity_dependent = bool(
             self.drag > 0 or rods is not None or (springs is not None and springs.damping.any()))
         self.linear = rods is None and (springs is None or springs.linear)
@@ -42,6 +44,8 @@ class ParticleSystem:
         return f
 
     def accel(self, t, x, v):
+        if self.springs is None and self.rods is None and self.drag == 0 and x.ndim == 1:
+            return self.g_flat  # gravity alone on one instance: a constant (free fall)
         shape = x.shape[:-1] + (self.nbody, 3)
         xb, vb = x.reshape(shape), v.reshape(shape)
         f = self.forces(xb, vb)

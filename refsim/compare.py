@@ -1,0 +1,356 @@
+"""`refsim compare RUN_A RUN_B`: row-by-row error and time ratios between two stored runs.
+
+A is the baseline, B the candidate. Rows are matched on the store's KEY (case, variant, engine,
+engine_variant, integrator, dt). The rules:
+
+Refused (listed with the reason, never compared):
+  - the case's source hash differs between the two manifests, or either manifest lacks it;
+  - the two rows ran the case with different parameters (`params`).
+Regression (B worse than A), judged only where the row is `ok` in A:
+  1. status: `ok` in A, anything else in B (diverged, failed, timeout, unsupported, unavailable);
+  2. tolerance: within_tol True in A, False in B;
+  3. error: err_B > error_threshold x err_A (default 1.10), unless err_B is at or below the
+     round-off floor: the larger of 1e-3 x the row's tolerance (the smaller of A's and B's)
+     and the case's error floor (`Case.error_floor`, the round-off level of the order fits).
+     Below it errors are round-off and their ratios noise. A finite err_A that becomes nan or
+     inf in B is a regression; a non-finite err_A gives no ratio and no verdict on error;
+  4. time: us_per_step_B > time_threshold x us_per_step_A (default 1.5, looser than the error
+     threshold because timings are noisy: the min of a few repeats moves by tens of per cent
+     between runs, and by 2-3x on a loaded machine, where `--no-time` (timings shown, never
+     judged) or a larger threshold is the honest gate). Rows without timings (nan
+     us_per_step) are not judged on time; a note says when the CPU or thread count differ.
+A row not `ok` in A is never a regression; `ok` in B it is "improved" (fixed). A row `ok` in
+both is "improved" too when it came back within tolerance, or when err_A (above the floor)
+exceeds error_threshold x err_B; timings never make a row "improved".
+
+The error compared is the column the case's tolerance bounds (`Case.tolerance_column`: err_max
+for most cases, err_rms for dam_break, conservation_err for Newton's cradle), looked up from the
+case in this tree; err_max when the case no longer exists.
+
+`main` returns 1 when any row regressed (so the command can gate CI), else 0. Bad input raises
+ValueError naming the parameter: a path that is not a stored run, a threshold <= 1 or not
+finite, an --out that is not a FILE.csv path, and two runs with no row that could be compared (a gate
+that compared nothing must not pass).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from refsim.store import DEFAULT_ROOT, KEY, atomic_write, load_results, row_key
+
+DEFAULT_ERROR_THRESHOLD = 1.10
+DEFAULT_TIME_THRESHOLD = 1.5
+ROUNDOFF_FRACTION = 1e-3  # errors below this fraction of the tolerance are round-off
+
+
+# ---------------------------------------------------------------------------------------------
+# Command line
+# ---------------------------------------------------------------------------------------------
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("run_a", metavar="RUN_A", help="baseline run directory (or run id "
+                        "under reports/runs)")
+    parser.add_argument("run_b", metavar="RUN_B", help="candidate run directory (or run id)")
+    parser.add_argument("--error-threshold", default=DEFAULT_ERROR_THRESHOLD,
+                        help=f"flag err_B > this x err_A (> 1, default "
+                             f"{DEFAULT_ERROR_THRESHOLD})")
+    parser.add_argument("--time-threshold", default=DEFAULT_TIME_THRESHOLD,
+                        help=f"flag us_per_step_B > this x us_per_step_A (> 1, default "
+                             f"{DEFAULT_TIME_THRESHOLD}; timings are noisy)")
+    parser.add_argument("--no-time", action="store_true", help="show timings, never flag them")
+    parser.add_argument("--out", default=None, help="also write the compared rows to FILE.csv")
+
+
+def main(args) -> int:
+    """Compare, print the table, the counts and one line per regression; 1 if any regressed."""
+    error_threshold = check_threshold("--error-threshold", args.error_threshold)
+    time_threshold = check_threshold("--time-threshold", args.time_threshold)
+    out = _check_out(args.out)
+    run_a, run_b = open_run("RUN_A", args.run_a), open_run("RUN_B", args.run_b)
+    result = compare_runs(run_a, run_b, error_threshold, time_threshold,
+                          judge_time=not args.no_time)
+    if result.compared.empty:
+        raise ValueError(f"RUN_B must share at least one comparable row with RUN_A, got none "
+                         f"({len(result.refused)} refused, {len(result.only_a)} only in A, "
+                         f"{len(result.only_b)} only in B)")
+    print_result(result, run_a, run_b, judge_time=not args.no_time)
+    if out is not None:
+        atomic_write(out, result.compared.to_csv(index=False, na_rep="nan"))
+    return 0 if result.regressions.empty else 1
+
+
+def check_threshold(name: str, value) -> float:
+    """A ratio threshold: a finite number > 1."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number > 1, got {value!r}") from None
+    if not math.isfinite(number) or number <= 1.0:
+        raise ValueError(f"{name} must be a finite number > 1, got {value}")
+    return number
+
+
+def _check_out(out) -> Path | None:
+    if out is None:
+        return None
+    path = Path(out)
+    if path.is_dir() or path.suffix.lower() != ".csv":
+        raise ValueError(f"--out must be a FILE.csv path (not a directory), got {out!r}")
+    return path
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class Run:
+    dir: Path
+    manifest: dict
+    rows: dict  # row_key -> row (a key found twice, only by hand-editing, keeps its last row)
+
+
+def open_run(name: str, path) -> Run:
+    """A stored run: a directory holding results.csv and manifest.json, given as a path or as
+    a run id under reports/runs."""
+    run_dir = Path(path)
+    if not run_dir.is_dir() and (DEFAULT_ROOT / str(path)).is_dir():
+        run_dir = DEFAULT_ROOT / str(path)
+    if not ((run_dir / "results.csv").is_file() and (run_dir / "manifest.json").is_file()):
+        raise ValueError(f"{name} must be a stored run directory (results.csv + "
+                         f"manifest.json), got {str(path)!r}")
+    try:
+        manifest = json.loads((run_dir / "manifest.json").read_text())
+        table = load_results(run_dir)
+    except (ValueError, pd.errors.ParserError) as exc:
+        raise ValueError(f"{name} must be a readable stored run, {run_dir}: "
+                         f"{str(exc).splitlines()[0]}") from None
+    missing = [k for k in KEY if k not in table]
+    if missing:
+        raise ValueError(f"{name} must be a stored run with columns {KEY}, "
+                         f"{run_dir}/results.csv lacks {missing}")
+    return Run(run_dir, manifest, {row_key(r): r for r in table.to_dict("records")})
+
+
+# ---------------------------------------------------------------------------------------------
+# Comparing
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class Result:
+    compared: pd.DataFrame
+    refused: pd.DataFrame
+    only_a: list = field(default_factory=list)
+    only_b: list = field(default_factory=list)
+
+    @property
+    def regressions(self) -> pd.DataFrame:
+        return self.compared[self.compared["verdict"] == "regression"]
+
+
+def compare_runs(a: Run, b: Run, error_threshold=DEFAULT_ERROR_THRESHOLD,
+                 time_threshold=DEFAULT_TIME_THRESHOLD, judge_time=True) -> Result:
+    """Match rows on KEY, refuse what cannot be compared, judge the rest (module docstring)."""
+    compared, refused = [], []
+    for key, ra in a.rows.items():
+        if key not in b.rows:
+            continue
+        rb = b.rows[key]
+        why = refusal(ra, rb, a.manifest, b.manifest)
+        if why:
+            refused.append({**dict(zip(KEY, key)), "reason": why})
+        else:
+            compared.append({**dict(zip(KEY, key)),
+                             **judge(ra, rb, error_threshold, time_threshold, judge_time)})
+    columns = KEY + ["norm", "err_a", "err_b", "err_ratio", "us_a", "us_b", "time_ratio",
+                     "status_a", "status_b", "verdict", "reasons"]
+    return Result(pd.DataFrame(compared, columns=columns),
+                  pd.DataFrame(refused, columns=KEY + ["reason"]),
+                  [k for k in a.rows if k not in b.rows], [k for k in b.rows if k not in a.rows])
+
+
+def refusal(ra: dict, rb: dict, manifest_a: dict, manifest_b: dict) -> str | None:
+    """Why two matched rows must not be compared, or None."""
+    case = ra["case"]
+    ha = manifest_a.get("case_hashes", {}).get(case)
+    hb = manifest_b.get("case_hashes", {}).get(case)
+    if ha is None or hb is None:
+        return f"case source hash of {case} missing from run {'A' if ha is None else 'B'}'s " \
+               f"manifest"
+    if ha != hb:
+        return f"case source changed ({case} hash {ha} in A, {hb} in B)"
+    pa, pb = _params(ra), _params(rb)
+    if pa != pb:
+        return f"case parameters differ ({pa or '{}'} in A, {pb or '{}'} in B)"
+    return None
+
+
+def _params(row: dict) -> dict:
+    text = row.get("params", "{}")
+    return json.loads(text) if isinstance(text, str) and text else {}
+
+
+def judge(ra: dict, rb: dict, error_threshold: float, time_threshold: float,
+          judge_time: bool) -> dict:
+    """Ratios and verdict of one matched pair: "regression", "improved", "ok" or
+    "not ok in A" (a row not ok in A and still not ok in B)."""
+    norm = _error_column(ra)
+    err_a, err_b = _number(ra, norm), _number(rb, norm)
+    us_a, us_b = _number(ra, "us_per_step"), _number(rb, "us_per_step")
+    out = {"norm": norm, "err_a": err_a, "err_b": err_b, "err_ratio": _ratio(err_b, err_a),
+           "us_a": us_a, "us_b": us_b, "time_ratio": _ratio(us_b, us_a),
+           "status_a": ra["status"], "status_b": rb["status"]}
+    if ra["status"] != "ok":
+        verdict = "improved" if rb["status"] == "ok" else "not ok in A"
+        why = [f"status {ra['status']} -> {rb['status']}"] if rb["status"] == "ok" else []
+        return {**out, "verdict": verdict, "reasons": "; ".join(why)}
+    if rb["status"] != "ok":
+        return {**out, "verdict": "regression",
+                "reasons": f"status ok -> {rb['status']} ({rb.get('reason', '')})"}
+    floor = _roundoff_floor(ra, rb)
+    worse = (_error_regression(err_a, err_b, error_threshold, floor)
+             + _tolerance_regression(ra, rb, norm)
+             + (_time_regression(us_a, us_b, time_threshold) if judge_time else []))
+    if worse:
+        return {**out, "verdict": "regression", "reasons": "; ".join(worse)}
+    better = _improved(err_a, err_b, error_threshold, floor, ra, rb)
+    return {**out, "verdict": "improved" if better else "ok", "reasons": better}
+
+
+def _error_regression(err_a, err_b, threshold, floor) -> list[str]:
+    """Rule 3: err_B > threshold x err_A above the round-off floor; finite -> nan/inf."""
+    if not math.isfinite(err_a):
+        return []
+    if not math.isfinite(err_b):
+        return [f"error {err_a:.3g} -> {err_b}"]
+    if err_b > threshold * err_a and err_b > floor:
+        return [f"error x{_ratio(err_b, err_a):.3g} ({err_a:.3g} -> {err_b:.3g}, threshold "
+                f"{threshold:g}, round-off floor {floor:.2g})"]
+    return []
+
+
+def _tolerance_regression(ra, rb, norm) -> list[str]:
+    """Rule 2: within the case's tolerance in A, outside it in B."""
+    if _truthy(ra.get("within_tol")) and not _truthy(rb.get("within_tol")):
+        return [f"now outside tolerance ({norm} {_number(rb, norm):.3g} > tolerance "
+                f"{_number(rb, 'tolerance'):.3g})"]
+    return []
+
+
+def _time_regression(us_a, us_b, threshold) -> list[str]:
+    """Rule 4: us_per_step_B > threshold x us_per_step_A, both measured."""
+    if math.isfinite(us_a) and math.isfinite(us_b) and us_b > threshold * us_a:
+        return [f"time x{us_b / us_a:.3f} ({us_a:.3g} -> {us_b:.3g} us/step, threshold "
+                f"{threshold:g})"]
+    return []
+
+
+def _improved(err_a, err_b, threshold, floor, ra, rb) -> str:
+    if not _truthy(ra.get("within_tol")) and _truthy(rb.get("within_tol")):
+        return "now within tolerance"
+    if math.isfinite(err_a) and math.isfinite(err_b) and err_a > floor \
+            and err_b * threshold < err_a:
+        return f"error x{_ratio(err_b, err_a):.3g}"
+    return ""
+
+
+def _roundoff_floor(ra, rb) -> float:
+    """max(1e-3 x the smaller tolerance, the case's error floor); 0 when neither is known."""
+    tols = [t for t in (_number(ra, "tolerance"), _number(rb, "tolerance")) if math.isfinite(t)]
+    floor = ROUNDOFF_FRACTION * min(tols) if tols else 0.0
+    case, p = _case_and_params(ra)
+    return max(floor, case.error_floor(p)) if case is not None else floor
+
+
+def _error_column(row) -> str:
+    case, p = _case_and_params(row)
+    return case.tolerance_column(p) if case is not None else "err_max"
+
+
+def _case_and_params(row):
+    """The case (from this tree) and its parameters for a row; (None, None) when the case or
+    its variant no longer exists."""
+    from cases import get_case
+    try:
+        case = get_case(row["case"])
+        return case, case.variant_params(row["variant"], _params(row))
+    except ValueError:
+        return None, None
+
+
+def _number(row: dict, column: str) -> float:
+    try:
+        return float(row.get(column, math.nan))
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _ratio(b: float, a: float) -> float:
+    """b / a; inf for b > 0 = a; nan when either is not finite or both are 0."""
+    if not (math.isfinite(a) and math.isfinite(b)) or (a == 0 and b == 0):
+        return math.nan
+    return math.inf if a == 0 else b / a
+
+
+def _truthy(value) -> bool:
+    return value is True or value is np.True_ or str(value) == "True"
+
+
+# ---------------------------------------------------------------------------------------------
+# Printing
+# ---------------------------------------------------------------------------------------------
+def label(key) -> str:
+    """One line naming a row: case/variant engine[:variant] integrator dt=..."""
+    case, variant, engine, engine_variant, integrator, dt = key
+    eng = engine + (f":{engine_variant}" if engine_variant else "")
+    return f"{case}/{variant} {eng} {integrator or '-'} dt={_fmt(dt, '.3g')}"
+
+
+def print_result(result: Result, run_a: Run, run_b: Run, judge_time=True) -> None:
+    print(f"A: {run_a.dir}\nB: {run_b.dir}")
+    print(display_table(result.compared).to_string(index=False))
+    print(f"compared {len(result.compared)}, refused {len(result.refused)}, only in A "
+          f"{len(result.only_a)}, only in B {len(result.only_b)}, regressions "
+          f"{len(result.regressions)}")
+    note = _machine_note(run_a.manifest, run_b.manifest)
+    if judge_time and note:
+        print(note)
+    for _, r in result.refused.iterrows():
+        print(f"refused    {label(tuple(r[k] for k in KEY))}: {r['reason']}")
+    for _, r in result.regressions.iterrows():
+        print(f"REGRESSION {label(tuple(r[k] for k in KEY))}: {r['reasons']}")
+
+
+def display_table(compared: pd.DataFrame) -> pd.DataFrame:
+    """The compared rows as short strings: key columns, errors, timings, ratios, verdict."""
+    table = pd.DataFrame({
+        "case": compared["case"], "variant": compared["variant"],
+        "engine": [e + (f":{v}" if v else "") for e, v in
+                   zip(compared["engine"], compared["engine_variant"])],
+        "integrator": compared["integrator"],
+        "dt": [_fmt(v, ".3g") for v in compared["dt"]]})
+    for col, spec in (("err_a", ".3g"), ("err_b", ".3g"), ("err_ratio", ".3g"),
+                      ("us_a", ".3g"), ("us_b", ".3g"), ("time_ratio", ".3g")):
+        table[col] = [_fmt(v, spec) for v in compared[col]]
+    table["verdict"] = compared["verdict"]
+    return table
+
+
+def _machine_note(ma: dict, mb: dict) -> str:
+    differs = [k for k in ("cpu", "threads") if ma.get(k) != mb.get(k)]
+    if not differs:
+        return ""
+    return "note: time ratios also compare machines: " + ", ".join(
+        f"{k} {ma.get(k)!r} in A, {mb.get(k)!r} in B" for k in differs)
+
+
+def _fmt(value, spec) -> str:
+    if isinstance(value, str):
+        return value or "-"
+    if value is None or not math.isfinite(float(value)):
+        return "-" if value is None or math.isnan(float(value)) else str(value)
+    return format(float(value), spec)

@@ -1,0 +1,255 @@
+"""`refsim report RUN_DIR`: report.md and a self-contained report.html from a stored run.
+
+Reads the store only (results.csv, manifest.json, series.jsonl); the cases are consulted for
+their description, units, energy scale and default target error, never re-run. Per case and
+variant: the recommendation (the cheapest configuration reaching the target error), a compact
+table, measured against nominal orders, and four figures: work-precision (error against run
+time, Pareto front marked), convergence (error against dt with fitted orders), energy against
+time at the reference dt and, for the dam break, the surge front over the experiment.
+"""
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from refsim import report_plots as plots
+
+ORDER_SLACK = 0.3  # |measured - nominal| within this: the measured order "matches"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("run_dir", metavar="RUN_DIR", help="a stored run (or its id under "
+                        "reports/runs)")
+    parser.add_argument("--target-error", default=None, help="accuracy goal for the "
+                        "recommendation, in each case's error units (default: per case)")
+    parser.add_argument("--out", default=None, help="directory for the report (default RUN_DIR)")
+
+
+def main(args) -> int:
+    from refsim.compare import open_run
+    run_dir = open_run("RUN_DIR", args.run_dir).dir
+    target = None
+    if args.target_error is not None:
+        try:
+            target = float(args.target_error)
+        except ValueError:
+            target = float("nan")
+        if not math.isfinite(target) or target <= 0:
+            raise ValueError(f"--target-error must be a finite number > 0, got "
+                             f"{args.target_error!r}")
+    md, page = write_report(run_dir, target, Path(args.out) if args.out else None)
+    print(md)
+    print(page)
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------
+# Content: a list of blocks, rendered twice (Markdown, HTML)
+# ---------------------------------------------------------------------------------------------
+def write_report(run_dir, target_error=None, out=None):
+    from refsim.store import load_results, load_series
+    run_dir = Path(run_dir)
+    out = Path(out or run_dir)
+    table = load_results(run_dir)
+    manifest = json.loads((run_dir / "manifest.json").read_text())
+    series = load_series(run_dir)
+    blocks = _header(manifest, table)
+    for (case, variant), rows in table.groupby(["case", "variant"], sort=False):
+        blocks += _case_section(case, variant, rows, series, target_error, out)
+    md_path, html_path = out / "report.md", out / "report.html"
+    out.mkdir(parents=True, exist_ok=True)
+    md_path.write_text(render_markdown(blocks, out))
+    html_path.write_text(render_html(blocks, manifest))
+    return md_path, html_path
+
+
+def _fmt(value, spec=".3g") -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
+    return format(value, spec)
+
+
+def _header(manifest, table):
+    counts = table["status"].value_counts().to_dict()
+    engines = ", ".join(f"{k} {v}" for k, v in manifest.get("engines", {}).items())
+    blocks = [("h1", f"refsim report: run {manifest.get('run_id', '?')}"),
+              ("p", f"Command `{manifest.get('command', '?')}`, commit "
+                    f"{str(manifest.get('git_commit', '?'))[:12]}, "
+                    f"{manifest.get('timestamp', '?')}."),
+              ("p", f"Machine: {manifest.get('cpu', '?')}; {manifest.get('threads', '?')} "
+                    f"BLAS/OpenMP thread(s); Python {manifest.get('python', '?')}, numpy "
+                    f"{manifest.get('numpy', '?')}. Engines: {engines}."),
+              ("p", f"{len(table)} rows: " + ", ".join(f"{k} {v}" for k, v in counts.items())
+               + ".")]
+    if "wall_s" in manifest:
+        wall, eng = manifest["wall_s"], manifest["engine_s"]
+        blocks.append(("p", f"Run time {wall:.1f} s, of which engines (setup, compilation, "
+                            f"stepping, observation) {eng:.1f} s: harness overhead "
+                            f"{100 * (wall - eng) / wall:.1f} %."))
+    blocks.append(("p", "Run time below is the time stepping the whole simulated interval "
+                        "(timing pass: fresh models, nothing observed, min of repeats; setup "
+                        "and compilation apart). Error is the case's compared norm at every "
+                        "sample against its reference; '!' marks a row above its tolerance."))
+    return blocks
+
+
+def _case_section(case_name, variant, rows, series, target_error, out):
+    from cases import get_case
+    from refsim.store import row_key
+    case = get_case(case_name)
+    p = case.variant_params(variant, json.loads(rows["params"].iloc[0] or "{}"))
+    col, units = case.tolerance_column(p), case.units
+    target = target_error if target_error is not None else case.target_error(p)
+    slug = f"{case_name}-{variant}".replace("/", "_").replace(" ", "_").replace("=", "")
+    title = f"{case_name} / {variant}"
+    blocks = [("h2", title), ("p", f"{case.description}. Compared: `{col}` of "
+                                   f"{case.observable} ({units}).")]
+    blocks.append(("p", recommendation(rows, col, units, target)))
+    ran = rows[np.isfinite(rows["dt"])]
+    figures = [
+        plots.work_precision(ran, col, units, out / "plots" / f"{slug}-work.png",
+                             f"{title}: work-precision"),
+        plots.convergence(ran, col, units, out / "plots" / f"{slug}-conv.png",
+                          f"{title}: convergence"),
+        plots.energy_history(ran, series, row_key, case.energy_scale(p),
+                             out / "plots" / f"{slug}-energy.png",
+                             f"{title}: energy at the reference dt"),
+    ]
+    if case_name == "dam_break" and p.get("layout") == "release":
+        from cases.dam_break import martin_moyce
+        figures.append(plots.front_history(ran, series, row_key, martin_moyce(),
+                                           out / "plots" / f"{slug}-front.png",
+                                           f"{title}: surge front"))
+    blocks += [("img", f, title) for f in figures if f is not None]
+    orders = order_table(ran)
+    if len(orders):
+        blocks += [("h3", "Measured against nominal order"), ("table", orders)]
+    blocks += [("h3", "Results"), ("table", compact_table(rows, col))]
+    return blocks
+
+
+def recommendation(rows, col, units, target) -> str:
+    """The cheapest configuration (least stepping time) with its error at or below target."""
+    ok = rows[(rows["status"] == "ok") & np.isfinite(rows[col]) & np.isfinite(rows["step_s"])]
+    if ok.empty:
+        return f"Recommendation: no configuration ran to the end (target {target:.3g} {units})."
+    good = ok[ok[col] <= target]
+    if good.empty:
+        best = ok.loc[ok[col].idxmin()]
+        return (f"Recommendation: none reaches the target {col} <= {target:.3g} {units}; the "
+                f"most accurate is {_config(best)} with {best[col]:.3g} in "
+                f"{best['step_s']:.3g} s.")
+    best = good.loc[good["step_s"].idxmin()]
+    return (f"Recommendation: to reach {col} <= {target:.3g} {units}, the cheapest is "
+            f"**{_config(best)}**: {best[col]:.3g} {units} in {best['step_s']:.3g} s "
+            f"({best['us_per_step']:.3g} us/step; {len(good)} of {len(ok)} configurations "
+            f"reach the target).")
+
+
+def _config(row) -> str:
+    return f"{plots.line_label(row)} at dt = {row['dt']:.3g} s"
+
+
+def order_table(rows) -> pd.DataFrame:
+    """Measured convergence order (fit over the asymptotic dt range) against nominal."""
+    ok = rows[(rows["status"] == "ok") & (rows.get("order_points", 0) >= 2)]
+    out = []
+    for _, sub in ok.groupby(["engine", "engine_variant", "integrator"], sort=False):
+        r = sub.iloc[0]
+        nominal, measured = r["nominal_order"], r["order"]
+        verdict = "-" if not (np.isfinite(nominal) and np.isfinite(measured)) else (
+            "matches" if abs(measured - nominal) <= ORDER_SLACK else "differs")
+        out.append({"engine": plots.line_label(r).rsplit(" ", 1)[0],
+                    "integrator": r["integrator"], "nominal": _fmt(nominal, "g"),
+                    "measured": _fmt(measured, ".2f"), "points": int(r["order_points"]),
+                    "verdict": verdict})
+    return pd.DataFrame(out)
+
+
+def compact_table(rows, col) -> pd.DataFrame:
+    out = []
+    for _, r in rows.iterrows():
+        if r["status"] == "ok":
+            status = "ok" if r["within_tol"] in (True, "True") else "ok, above tolerance !"
+        else:
+            status = f"{r['status']}: {r['reason']}"
+        out.append({"engine": plots.line_label(r).rsplit(" ", 1)[0] if r["integrator"] else
+                    r["engine"], "integrator": r["integrator"] or "-",
+                    "dt": _fmt(r["dt"]), col: _fmt(r[col], ".2e"),
+                    "energy_drift": _fmt(r["energy_drift"], ".2e"),
+                    "order": _fmt(r.get("order", np.nan), ".2f"),
+                    "us/step": _fmt(r["us_per_step"]), "status": status})
+    return pd.DataFrame(out)
+
+
+# ---------------------------------------------------------------------------------------------
+# Rendering
+# ---------------------------------------------------------------------------------------------
+def _md_table(df: pd.DataFrame) -> str:
+    cells = [[str(c).replace("|", "\\|") for c in df.columns]]
+    cells += [[str(v).replace("|", "\\|") for v in row] for row in df.itertuples(index=False)]
+    lines = ["| " + " | ".join(r) + " |" for r in cells]
+    lines.insert(1, "|" + "|".join("---" for _ in df.columns) + "|")
+    return "\n".join(lines)
+
+
+def render_markdown(blocks, out: Path) -> str:
+    parts = []
+    for block in blocks:
+        kind = block[0]
+        if kind in ("h1", "h2", "h3"):
+            parts.append("#" * int(kind[1]) + " " + block[1])
+        elif kind == "p":
+            parts.append(block[1])
+        elif kind == "table":
+            parts.append(_md_table(block[1]))
+        elif kind == "img":
+            parts.append(f"![{block[2]}]({Path(block[1]).relative_to(out).as_posix()})")
+    return "\n\n".join(parts) + "\n"
+
+
+CSS = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;
+color:#222}h1{font-size:1.5em}h2{border-top:1px solid #ccc;padding-top:.8em;margin-top:2em}
+table{border-collapse:collapse;font-size:.8em;margin:.5em 0}td,th{border:1px solid #ddd;
+padding:2px 6px;text-align:right}th{background:#f3f3f3}td:nth-child(-n+2){text-align:left}
+img{max-width:100%;display:block;margin:.4em 0}nav a{margin-right:1em}code{background:#f5f5f5}"""
+
+
+def _inline(text: str) -> str:
+    """Markdown's `code` and **bold** in a paragraph, escaped for HTML."""
+    out = html.escape(text)
+    for mark, tag in (("**", "b"), ("`", "code")):
+        pieces = out.split(mark)
+        out = "".join(f"<{tag}>{s}</{tag}>" if k % 2 else s for k, s in enumerate(pieces))
+    return out
+
+
+def render_html(blocks, manifest) -> str:
+    body, toc = [], []
+    for block in blocks:
+        kind = block[0]
+        if kind == "h2":
+            anchor = f"s{len(toc)}"
+            toc.append(f'<a href="#{anchor}">{html.escape(block[1])}</a>')
+            body.append(f'<h2 id="{anchor}">{html.escape(block[1])}</h2>')
+        elif kind in ("h1", "h3"):
+            body.append(f"<{kind}>{html.escape(block[1])}</{kind}>")
+        elif kind == "p":
+            body.append(f"<p>{_inline(block[1])}</p>")
+        elif kind == "table":
+            body.append(block[1].to_html(index=False, border=0, escape=True))
+        elif kind == "img":
+            data = base64.b64encode(Path(block[1]).read_bytes()).decode()
+            body.append(f'<img alt="{html.escape(block[2])}" src="data:image/png;base64,'
+                        f'{data}">')
+    nav = f"<nav>{''.join(toc)}</nav>" if toc else ""
+    body.insert(min(len(body), 6), nav)
+    title = html.escape(f"refsim report {manifest.get('run_id', '')}")
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title>"
+            f"<style>{CSS}</style></head><body>{''.join(body)}</body></html>\n")
