@@ -538,7 +538,8 @@ def _define_sph(ti, lib) -> dict:
     nd_i32 = ti.types.ndarray(dtype=i32, ndim=1)
     nd_i64 = ti.types.ndarray(dtype=ti.i64, ndim=1)
     sph_t = ti.types.argpack(
-        n_fluid=i32, mass=f64, h=f64, rho0=f64, c0=f64, alpha=f64, gravity=vec2, cell_min=f64,
+        n_fluid=i32, no_slip=i32, mass=f64, h=f64, rho0=f64, c0=f64, alpha=f64, gravity=vec2,
+        cell_min=f64,
         rho=nd_f64, p=nd_f64, drho=nd_f64, acc=nd_vec2, cell_count=nd_i32, cell_start=nd_i32,
         cell_of=nd_i32, order=nd_i32, grid=nd_f64, dims=nd_i32, stats=nd_i64)
     pi = math.pi
@@ -701,7 +702,7 @@ def _define_sph(ti, lib) -> dict:
                         dv = v[i] - v[j]
                         vr = dv[0] * d[0] + dv[1] * d[1]
                         visc = 0.0
-                        if vr < 0.0:
+                        if vr < 0.0 and (S.no_slip != 0 or j < S.n_fluid):
                             mu = S.h * vr / (r * r + 0.01 * S.h * S.h)
                             visc = -S.alpha * S.c0 * mu / (0.5 * (S.rho[i] + S.rho[j]))
                         coef = S.mass * (pi_term + S.p[j] / (S.rho[j] * S.rho[j]) + visc)
@@ -1241,7 +1242,8 @@ class FluidSim(_KernelSim):
         self.nd = {key: _ndarray(ti, arr) for key, arr in arrays.items()}
         self.x = _ndarray(ti, np.concatenate([x, walls]))
         self.v = _ndarray(ti, np.zeros((total, 2)))
-        pack = lib["sph_t"](n_fluid=self.n_fluid, mass=self.mass, h=self.h,
+        pack = lib["sph_t"](n_fluid=self.n_fluid, no_slip=int(fluid.no_slip), mass=self.mass,
+                            h=self.h,
                             rho0=fluid.density, c0=fluid.sound_speed,
                             alpha=fluid.viscosity_alpha, gravity=lib["vec2"](*self.gravity),
                             cell_min=self.cell_min(self.h), **self.nd)
@@ -1316,6 +1318,8 @@ class FluidSim(_KernelSim):
                                 "negative pressures clamped to 0",
                 "smoothing_h": self.h, "h_over_dx": f.smoothing, "sound_speed": f.sound_speed,
                 "viscosity_alpha": f.viscosity_alpha, "rho0": f.density,
+                "walls": "no-slip (viscosity on wall pairs)" if f.no_slip else
+                "free-slip (pressure only)",
                 "gravity_2d": self.gravity.tolist(),
                 "particles": self.n_fluid, "wall_particles": self.n_wall,
                 "wall_layers": self.wall_layers,

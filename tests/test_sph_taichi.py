@@ -22,8 +22,8 @@ CASE = get_case("dam_break")
 _import_taichi()  # CI must have every engine: fail here, not skip
 
 
-def _scene(variant="res20", resolution=10):
-    p = CASE.variant_params(variant, {"resolution": resolution})
+def _scene(variant="res20", resolution=10, walls="no_slip"):
+    p = CASE.variant_params(variant, {"resolution": resolution, "walls": walls})
     return p, CASE.scene(p), CASE.reference_dt(p)
 
 
@@ -33,7 +33,8 @@ def _differences(a, b):
     return {k: float(np.abs(oa[k] - ob[k]).max()) for k in ("x", "v", "rho", "mass")}
 
 
-def test_agrees_with_refsim_numpy_engine_to_round_off():
+@pytest.mark.parametrize("walls", ["no_slip", "free_slip"])
+def test_agrees_with_refsim_numpy_engine_to_round_off(walls):
     """Same particles, parameters, model and step: after 300 steps of the dam break at a/dx =
     10 (200 fluid, 648 wall particles, fluid speeds up to ~0.6 m/s, rho ~ 1000) the engines
     differ by about 5e-16 m in x, 2e-13 m/s in v and 3e-11 kg/m^3 in rho (measured), i.e.
@@ -42,8 +43,9 @@ def test_agrees_with_refsim_numpy_engine_to_round_off():
     cell sort and bincount; taichi: each particle's own 3 x 3 cells in index order), which
     leaves ~1e-14 relative in the first accelerations; the chaotic flow then grows it slowly.
     The initial states are identical to the bit (the same construction functions)."""
-    p, scene, dt = _scene()
+    p, scene, dt = _scene(walls=walls)
     a, b = TAICHI.build(scene, dt, VV), REFSIM.build(scene, dt, VV)
+    assert a.settings()["walls"] == b.settings()["walls"]
     assert _differences(a, b) == {"x": 0.0, "v": 0.0, "rho": 0.0, "mass": 0.0}
     worst = {}
     for _ in range(6):
