@@ -80,7 +80,8 @@ CONTACT_SLOP = 1e-9  # in contact: gap <= CONTACT_SLOP (r_a + r_b) (catches roun
 CELLS_PER_SPHERE = 8  # grid array size 8 N + 64 (the cell size grows past 2 r_max to fit)
 CONTACTS_PER_SPHERE = 16  # contact list size 16 N + 64; more is reported as a failure
 SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)
-THREADS = 1
+# CPU threads taichi may use (recorded in settings); REFSIM_TAICHI_THREADS overrides the 1
+THREADS = int(os.environ.get("REFSIM_TAICHI_THREADS", "1") or 1)
 OFFLINE_CACHE = False
 CACHE_DIR = os.path.join(tempfile.gettempdir(),
                          f"refsim-taichi-cache-{getattr(os, 'getuid', lambda: 'user')()}")
