@@ -87,11 +87,12 @@ def _header(manifest, table):
                     f"{manifest.get('numpy', '?')}. Engines: {engines}."),
               ("p", f"{len(table)} rows: " + ", ".join(f"{k} {v}" for k, v in counts.items())
                + ".")]
-    if "wall_s" in manifest:
-        wall, eng = manifest["wall_s"], manifest["engine_s"]
-        blocks.append(("p", f"Run time {wall:.1f} s, of which engines (setup, compilation, "
-                            f"stepping, observation) {eng:.1f} s: harness overhead "
-                            f"{100 * (wall - eng) / wall:.1f} %."))
+    if "harness_overhead" in manifest:
+        blocks.append(("p", f"Run time {manifest['wall_s']:.1f} s on "
+                            f"{manifest.get('workers', 1)} worker process(es), one thread "
+                            f"each; harness overhead {100 * manifest['harness_overhead']:.1f} % "
+                            "of the work (the rest is the engines' setup, compilation, "
+                            "stepping and observation)."))
     blocks.append(("p", "Run time below is the time stepping the whole simulated interval "
                         "(timing pass: fresh models, nothing observed, min of repeats; setup "
                         "and compilation apart). Error is the case's compared norm at every "

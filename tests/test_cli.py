@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from refsim.store import DEFAULT_ROOT, KEY, load_results
+from refsim.store import DEFAULT_ROOT, KEY, load_results, row_key
 
 
 def refsim(*args, cwd=None):
@@ -81,8 +81,11 @@ def test_resume_finishes_without_redoing_rows(tmp_path):
     kept = table.iloc[:2]
     kept.to_csv(run_dir / "results.csv", index=False, na_rep="nan")  # as if interrupted
     journal = (run_dir / "rows.jsonl").read_text().splitlines()
-    # two finished rows and a third cut off mid-write
-    (run_dir / "rows.jsonl").write_text("\n".join(journal[:2]) + "\n" + journal[2][:40])
+    keys = {row_key(r) for r in kept.to_dict("records")}
+    finished = [line for line in journal if row_key(json.loads(line)) in keys]
+    cut = next(line for line in journal if row_key(json.loads(line)) not in keys)
+    # the two finished rows, and a third cut off mid-write
+    (run_dir / "rows.jsonl").write_text("\n".join(finished) + "\n" + cut[:40])
     manifest = json.loads((run_dir / "manifest.json").read_text())
     (run_dir / "manifest.json").write_text(json.dumps({**manifest, "status": "running"}))
     out = refsim("run", "--resume", run_dir.name, "--out", str(tmp_path))
