@@ -82,6 +82,9 @@ class CollidingSpheres(Case):
         "box_1000": {"layout": "box", "n_spheres": 1000},
     }
     quick_variants = ("head_on", "oblique", "cradle", "box_100")
+    # box_1000 (about 3 minutes of work over every engine and dt) runs by name or with --variant
+    default_variants = ("head_on", "head_on_e0.5", "head_on_1to3", "head_on_1to3_e0.5",
+                        "oblique", "oblique_friction", "cradle", "box_100")
 
     # -- scene -------------------------------------------------------------------------------
     def validate(self, overrides=None):

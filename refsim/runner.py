@@ -20,7 +20,7 @@ from refsim.integrators import INTEGRATORS, get_integrator
 from refsim.metrics import convergence_order, energy_drift, error_norms
 
 STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
-LONG_RUN_S = 2.0  # accuracy passes longer than this give the timing sample themselves
+LONG_RUN_S = 0.5  # accuracy passes longer than this give the timing sample themselves
 BUDGET_S = 0.5  # a timing pass stops repeating once its runs have taken this long
 
 
@@ -206,8 +206,9 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
                within_tol=bool(row[case.tolerance_column(p)] <= tol))
     if repeats > 0 and stepping_s > max(budget_s, LONG_RUN_S):
         # a long run: its step() calls in the accuracy pass (observation outside them) are
-        # the one timing sample; repeating it would only double the wall time. Its ~400
-        # calls cost at most ~0.1 ms each in per-call overhead (a taichi launch): < 2 % here
+        # the one timing sample; repeating it would only double the wall time. Its <= ~400
+        # calls cost ~30 us each at most in per-call overhead (a taichi launch, ENGINE_NOTES):
+        # <= 12 ms, < 2.5 % of a run this long
         row.update(step_s=stepping_s, step_s_median=stepping_s, repeats=1,
                    us_per_step=stepping_s / steps * 1e6, timing="accuracy-pass step calls")
     elif repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
