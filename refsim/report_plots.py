@@ -96,16 +96,21 @@ def convergence(rows, err_col, units, path: Path, title: str):
     return _finish(fig, ax, path, title)
 
 
+def _traced(rows, series: dict, key_of, field: str):
+    """(row, its stored time series) for every row whose series holds `field`."""
+    for _, row in rows.iterrows():
+        trace = series.get(key_of(row))
+        if trace and field in trace:
+            yield row, trace
+
+
 def energy_history(rows, series: dict, key_of, scale: float, path: Path, title: str):
     """|E(t) - E(0)| / energy scale at the reference dt (log scale, round-off floored at
     1e-16), one line per engine and integrator."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=SIZE)
     drawn = 0
-    for _, row in rows.iterrows():
-        trace = series.get(key_of(row))
-        if not trace or "energy" not in trace:
-            continue
+    for row, trace in _traced(rows, series, key_of, "energy"):
         e = np.asarray(trace["energy"], float)
         ax.semilogy(trace["t"][1:], np.maximum(np.abs(e[1:] - e[0]) / scale, 1e-16), lw=1,
                     label=line_label(row))
@@ -124,10 +129,7 @@ def front_history(rows, series: dict, key_of, data, path: Path, title: str):
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=SIZE)
     drawn = 0
-    for _, row in rows.iterrows():
-        trace = series.get(key_of(row))
-        if not trace or "front" not in trace:
-            continue
+    for row, trace in _traced(rows, series, key_of, "front"):
         shift = row.get("time_shift", 0.0)
         shift = 0.0 if not np.isfinite(shift) else shift
         ax.plot(np.asarray(trace["T"]) + shift, trace["front"], lw=1.2,
