@@ -45,7 +45,7 @@ class FluidSim(Sim):
         self.h = fluid.smoothing * fluid.spacing
         self.model = WCSPH(wall_particles(fluid), self.mass, self.h, fluid.density,
                            fluid.sound_speed, fluid.viscosity_alpha, g,
-                           no_slip=fluid.no_slip)
+                           no_slip=fluid.no_slip, delta=fluid.delta, tension=fluid.tension)
         self.state = FluidState(x=x, v=np.zeros_like(x), rho=rho)
         self.geom, self.acc = self.model.start(self.state)
 
@@ -64,9 +64,13 @@ class FluidSim(Sim):
         return {"integrator": {"name": "velocity_verlet", "order": 2,
                                "family": "kick-drift-kick (leapfrog) with continuity density",
                                "explicit": True, "symplectic": False},
-                "model": "WCSPH: Wendland C2, Tait gamma 7, Monaghan viscosity, Adami walls",
+                "model": "WCSPH: Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH "
+                         "density diffusion, Adami walls",
                 "smoothing_h": self.h, "h_over_dx": f.smoothing, "sound_speed": f.sound_speed,
                 "viscosity_alpha": f.viscosity_alpha, "rho0": f.density,
+                "delta_sph": f.delta,
+                "pressure": "Tait, negative kept (tension)" if f.tension else
+                "Tait, clamped at 0",
                 "walls": "no-slip (viscosity on wall pairs)" if f.no_slip else
                 "free-slip (pressure only)",
                 "particles": len(self.state.x), "wall_particles": len(self.model.walls),

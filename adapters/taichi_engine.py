@@ -539,9 +539,9 @@ def _define_sph(ti, lib) -> dict:
     nd_i32 = ti.types.ndarray(dtype=i32, ndim=1)
     nd_i64 = ti.types.ndarray(dtype=ti.i64, ndim=1)
     sph_t = ti.types.argpack(
-        n_fluid=i32, no_slip=i32, mass=f64, h=f64, rho0=f64, c0=f64, alpha=f64, gravity=vec2,
-        cell_min=f64,
-        rho=nd_f64, p=nd_f64, drho=nd_f64, acc=nd_vec2, cell_count=nd_i32, cell_start=nd_i32,
+        n_fluid=i32, no_slip=i32, tension=i32, mass=f64, h=f64, rho0=f64, c0=f64, alpha=f64,
+        delta=f64, gravity=vec2, cell_min=f64,
+        rho=nd_f64, p=nd_f64, drho=nd_f64, diffused=nd_f64, acc=nd_vec2, cell_count=nd_i32, cell_start=nd_i32,
         cell_of=nd_i32, order=nd_i32, grid=nd_f64, dims=nd_i32, stats=nd_i64)
     pi = math.pi
 
@@ -648,12 +648,44 @@ def _define_sph(ti, lib) -> dict:
         return out
 
     @ti.func
+    def diffusion(x: ti.template(), S: ti.template(), i):
+        """delta-SPH density diffusion with the hydrostatic part taken out (fluid-fluid):
+        sum_j 2 delta h c0 m |F_ij| (rho_j - rho_i - rho^H_ji) / rho_j, rho^H_ji =
+        rho0 ((1 - 7 g . (x_i - x_j) / c0^2)^(1/7) - 1)."""
+        reach = 2.0 * S.h
+        g = S.gravity
+        out = 0.0
+        for dy in range(-1, 2):
+            s0, s1 = row_span(S, i, dy)
+            for s in range(s0, s1):
+                j = S.order[s]
+                if j != i and j < S.n_fluid:
+                    d = x[i] - x[j]
+                    r = ti.sqrt(d[0] * d[0] + d[1] * d[1])
+                    if r < reach:
+                        grad = gradient_factor(r, S.h) * d
+                        weight = -2.0 * S.delta * S.h * S.c0 * S.mass * (
+                            grad[0] * d[0] + grad[1] * d[1]) / (r * r)
+                        head = SPH_GAMMA * (d[0] * g[0] + d[1] * g[1]) / (S.c0 * S.c0)
+                        down = S.rho0 * (ti.pow(1.0 - head, 1.0 / SPH_GAMMA) - 1.0)
+                        out += weight * (S.rho[j] - S.rho[i] - down) / S.rho[j]
+        return out
+
+    @ti.func
+    def fluid_pressure(S: ti.template(), i):
+        """Tait; clamped at 0 unless the fluid may carry tension."""
+        p = tait_pressure(S, S.rho[i])
+        if S.tension == 0:
+            p = ti.max(p, 0.0)
+        return p
+
+    @ti.func
     def pressures(x: ti.template(), S: ti.template()):
-        """Fluid: p = max(Tait(rho), 0). Walls (Adami 2012, eq. 27, wall at rest):
+        """Fluid: p = Tait(rho) (clamped at 0 without tension). Walls (Adami 2012, eq. 27, wall at rest):
         p_w = max((sum p_f W + sum rho_f ((x_w - x_f) . g) W) / sum W, 0) (0 without fluid
         neighbours), rho_w from the inverted equation of state."""
         for i in range(S.n_fluid):
-            S.p[i] = ti.max(tait_pressure(S, S.rho[i]), 0.0)
+            S.p[i] = fluid_pressure(S, i)
         for w in range(S.n_fluid, x.shape[0]):
             wall_pressure(x, S, w)
 
@@ -726,8 +758,9 @@ def _define_sph(ti, lib) -> dict:
 
     @ti.kernel
     def advance_sph(x: nd_vec2, v: nd_vec2, S: sph_t, dt: f64, n: ti.i32):
-        """Per step (refsim.models.sph.WCSPH.step): v+ = v + dt/2 a; D0 = D(x, v+) on the grid
-        of x; x' = x + dt v+; grid of x'; rho' = rho + dt/2 (D0 + D(x', v+));
+        """Per step (refsim.models.sph.WCSPH.step): v+ = v + dt/2 a; D0 = D(x, v+) and the
+        delta-SPH Dd(x, rho) on the grid of x; x' = x + dt v+; grid of x';
+        rho' = rho + dt/2 (D0 + D(x', v+)) + dt Dd;
         a' = a(x', rho'); v' = v+ + dt/2 a'."""
         ti.loop_config(serialize=True)  # the time loop: serial, and so is everything inside
         for _ in range(n):
@@ -737,11 +770,15 @@ def _define_sph(ti, lib) -> dict:
                 v[i] = v[i] + half * S.acc[i]
             for i in range(nf):
                 S.drho[i] = continuity(x, v, S, i)
+                S.diffused[i] = 0.0
+                if S.delta != 0.0:
+                    S.diffused[i] = diffusion(x, S, i)
             for i in range(nf):
                 x[i] = x[i] + dt * v[i]
             build_grid(x, S)
             for i in range(nf):
-                S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i))
+                S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i)) + (
+                    dt * S.diffused[i])
             accelerations(x, v, S)
             for i in range(nf):
                 v[i] = v[i] + half * S.acc[i]
@@ -758,15 +795,19 @@ def _define_sph(ti, lib) -> dict:
             v[i] = v[i] + half * S.acc[i]
         for i in range(S.n_fluid):
             S.drho[i] = continuity(x, v, S, i)
+            S.diffused[i] = 0.0
+            if S.delta != 0.0:
+                S.diffused[i] = diffusion(x, S, i)
         for i in range(S.n_fluid):
             x[i] = x[i] + dt * v[i]
         ti.loop_config(serialize=True)
         for _ in range(1):
             build_grid(x, S)
         for i in range(S.n_fluid):
-            S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i))
+            S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i)) + (
+                dt * S.diffused[i])
         for i in range(S.n_fluid):
-            S.p[i] = ti.max(tait_pressure(S, S.rho[i]), 0.0)
+            S.p[i] = fluid_pressure(S, i)
         for w in range(S.n_fluid, x.shape[0]):
             wall_pressure(x, S, w)
         for i in range(S.n_fluid):
@@ -1207,8 +1248,8 @@ class SphereSim(_KernelSim):
 
 class FluidSim(_KernelSim):
     """2D weakly compressible SPH (feature "fluid"): refsim's model (`refsim.models.sph`:
-    Wendland C2, Tait gamma 7, Monaghan viscosity, Adami 2012 wall particles, negative
-    pressures clamped to 0) and refsim's kick-drift-kick step with the trapezoid density drift,
+    Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH density diffusion, Adami 2012 wall
+    particles, negative pressures clamped to 0 or kept) and refsim's kick-drift-kick step with the trapezoid density drift,
     as taichi kernels (`_define_sph`). Particles, masses and initial densities are built by
     the in-house engine's own functions (`adapters.refsim_sph`), so both engines start from
     the same bits."""
@@ -1233,6 +1274,7 @@ class FluidSim(_KernelSim):
         self.cells = SPH_CELLS_PER_PARTICLE * total + 64
         arrays = {"rho": np.concatenate([rho, np.full(self.n_wall, fluid.density)]),
                   "p": np.zeros(total), "drho": np.zeros(self.n_fluid),
+                  "diffused": np.zeros(self.n_fluid),
                   "acc": np.zeros((self.n_fluid, 2)),
                   "cell_count": np.zeros(self.cells, np.int32),
                   "cell_start": np.zeros(self.cells, np.int32),
@@ -1243,10 +1285,11 @@ class FluidSim(_KernelSim):
         self.nd = {key: _ndarray(ti, arr) for key, arr in arrays.items()}
         self.x = _ndarray(ti, np.concatenate([x, walls]))
         self.v = _ndarray(ti, np.zeros((total, 2)))
-        pack = lib["sph_t"](n_fluid=self.n_fluid, no_slip=int(fluid.no_slip), mass=self.mass,
-                            h=self.h,
+        pack = lib["sph_t"](n_fluid=self.n_fluid, no_slip=int(fluid.no_slip),
+                            tension=int(fluid.tension), mass=self.mass, h=self.h,
                             rho0=fluid.density, c0=fluid.sound_speed,
-                            alpha=fluid.viscosity_alpha, gravity=lib["vec2"](*self.gravity),
+                            alpha=fluid.viscosity_alpha, delta=fluid.delta,
+                            gravity=lib["vec2"](*self.gravity),
                             cell_min=self.cell_min(self.h), **self.nd)
         super().__init__(dt, integrator, variant, (self.x, self.v, pack))
         if variant == "parallel":
@@ -1311,12 +1354,16 @@ class FluidSim(_KernelSim):
         integ = {"name": "velocity_verlet", "order": 2,
                  "family": "kick-drift-kick (leapfrog) with continuity density",
                  "explicit": True, "symplectic": False,
-                 "native": "kernel advance_sph: v += h/2 a(x, rho); D0 = D(x, v); x += h v; "
-                           "rho += h/2 (D0 + D(x', v)); v += h/2 a(x', rho')"}
+                 "native": "kernel advance_sph: v += h/2 a(x, rho); D0 = D(x, v); "
+                           "Dd = D_delta(x, rho); x += h v; rho += h/2 (D0 + D(x', v)) + h Dd; "
+                           "v += h/2 a(x', rho')"}
         return {**base, "integrator": integ,
-                "model": "WCSPH: Wendland C2, Tait gamma 7, Monaghan viscosity, Adami walls",
-                "model_source": "refsim.models.sph (same expressions, same operation order); "
-                                "negative pressures clamped to 0",
+                "model": "WCSPH: Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH "
+                         "density diffusion, Adami walls",
+                "model_source": "refsim.models.sph (same expressions, same operation order)",
+                "delta_sph": f.delta,
+                "pressure": "Tait, negative kept (tension)" if f.tension else
+                "Tait, clamped at 0",
                 "smoothing_h": self.h, "h_over_dx": f.smoothing, "sound_speed": f.sound_speed,
                 "viscosity_alpha": f.viscosity_alpha, "rho0": f.density,
                 "walls": "no-slip (viscosity on wall pairs)" if f.no_slip else

@@ -132,6 +132,18 @@ class Case:
     def sample_dt(self, p) -> float:
         return self.t_end(p) / self.samples
 
+    def observed(self, p) -> tuple[str, str]:
+        """(observable, units) compared for these parameters (a sub-case may differ)."""
+        return self.observable, self.units
+
+    def bodies(self, p) -> int:
+        """How many bodies or particles the scene moves (for ordering jobs by their work)."""
+        return 1
+
+    def work(self, p, dt) -> float:
+        """Body-steps of one run at dt: the runner starts the largest first."""
+        return self.bodies(p) * self.t_end(p) / dt
+
     def source_hash(self) -> str:
         source = inspect.getsource(inspect.getmodule(type(self)))
         return hashlib.sha256(source.encode()).hexdigest()[:16]

@@ -105,12 +105,12 @@ def _case_section(case_name, variant, rows, series, target_error, out):
     from refsim.store import row_key
     case = get_case(case_name)
     p = case.variant_params(variant, json.loads(rows["params"].iloc[0] or "{}"))
-    col, units = case.tolerance_column(p), case.units
+    col, (observable, units) = case.tolerance_column(p), case.observed(p)
     target = target_error if target_error is not None else case.target_error(p)
     slug = f"{case_name}-{variant}".replace("/", "_").replace(" ", "_").replace("=", "")
     title = f"{case_name} / {variant}"
     blocks = [("h2", title), ("p", f"{case.description}. Compared: `{col}` of "
-                                   f"{case.observable} ({units}).")]
+                                   f"{observable} ({units}).")]
     blocks.append(("p", recommendation(rows, col, units, target)))
     ran = rows[np.isfinite(rows["dt"])]
     figures = [

@@ -377,9 +377,18 @@ def _results(todo, run_id, repeats, budget_s, workers):
         yield from map(_work, tasks)
         return
     import multiprocessing as mp
-    tasks.sort(key=lambda t: t[0].case != "dam_break")
+    tasks.sort(key=lambda t: (t[0].case != "dam_break", -_job_size(t[0])))
     with mp.get_context("spawn").Pool(workers, initializer=_worker_init) as pool:
         yield from pool.imap_unordered(_work, tasks, chunksize=1)
+
+
+def _job_size(job) -> float:
+    """A job's body-steps (its case's estimate), to start the largest fluid runs first; 0 for
+    an engine that does not support the case (no dt: nothing runs)."""
+    if not job.dt == job.dt:
+        return 0.0
+    case = get_case(job.case)
+    return case.work(case.variant_params(job.variant, dict(job.params)), job.dt)
 
 
 def _worker_init():

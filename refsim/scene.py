@@ -142,7 +142,10 @@ class FluidBlock:
     viscosity alpha; smoothing length h = smoothing * spacing. `no_slip`: the artificial
     viscosity also acts between fluid and wall particles (a numerical no-slip wall whose
     effective viscosity alpha c0 h / 8 shrinks with the resolution); otherwise the walls act
-    through pressure only (free-slip)."""
+    through pressure only (free-slip). `delta`: the delta-SPH density diffusion coefficient
+    (Molteni & Colagrossi 2009; 0 = none). `tension`: the pressure follows the equation of
+    state below rho0 too (negative pressure holds the fluid together); otherwise it is
+    clamped at 0 there."""
 
     lower: tuple[float, float]
     upper: tuple[float, float]
@@ -154,9 +157,13 @@ class FluidBlock:
     viscosity_alpha: float = 0.02
     smoothing: float = 1.3
     no_slip: bool = False
+    delta: float = 0.0
+    tension: bool = False
 
     def __post_init__(self):
         _set(self, "no_slip", bool(self.no_slip))
+        _set(self, "tension", bool(self.tension))
+        _set(self, "delta", _nonnegative("fluid.delta", self.delta))
         for name in ("spacing", "tank_width", "tank_height", "density", "sound_speed",
                      "smoothing"):
             _set(self, name, _positive(f"fluid.{name}", getattr(self, name)))

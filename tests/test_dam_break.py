@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cases import get_case
-from cases.dam_break import martin_moyce
+from cases.dam_break import clock_spread_rms, martin_moyce
 from refsim.testing import accuracy
 
 CASE = get_case("dam_break")
@@ -34,24 +34,18 @@ def test_hydrostatic_tank_settles_to_rho_g_h():
     assert row["mass_drift"] == 0.0
 
 
-def _clock_spread_rms(fraction):
-    """RMS change of the measured Z(T) if the experiment's clock ran `fraction` fast: how far
-    the experiment itself moves when its runs spread by that fraction in T (issue 5: 5-10 %)."""
-    T, Z = martin_moyce()
-    inside = T * (1 + fraction) <= T[-1]
-    return float(np.sqrt(np.mean((np.interp(T[inside] * (1 + fraction), T, Z) - Z[inside]) ** 2)))
-
-
 def test_front_against_martin_moyce_at_coarse_resolution():
     """At a/dx = 10 (200 particles) the front must lie within the experiment's own 10 % spread
-    in T (RMS 0.67 in Z, computed from the table), with the fitted time shift inside its
-    bound. The case tolerance (0.15 at a/dx >= 40, scaled as dx) is for the finer runs:
-    measured front_err_rms 0.60, 0.38, 0.19 at a/dx = 10, 20, 40 (first-order convergence)."""
+    in T (RMS 0.66 in Z, computed from the table), with the fitted time shift inside its
+    bound, and the density within 3 % everywhere (issue 5). Measured: front_err_rms 0.63,
+    density_dev_max 0.75 %. The case tolerance (0.15, the experiment's 5-10 % spread) is for
+    the finer runs; the front error there is set by the numerical bed friction (the case
+    docstring), not by a discretisation error that shrinks as dx."""
     p, row = _run("res20", resolution=10)
     assert row["status"] == "ok" and row["mass_drift"] < 0.01
     assert abs(row["time_shift"]) <= 0.3
-    assert row["density_dev_mean"] < 0.03
-    assert row["front_err_rms"] < _clock_spread_rms(0.10), row["front_err_rms"]
+    assert row["density_dev_max"] < 0.03
+    assert row["front_err_rms"] < clock_spread_rms(0.10), row["front_err_rms"]
 
 
 def test_front_definition_ignores_spray():

@@ -14,6 +14,7 @@ import pytest
 from adapters import get_engine
 from adapters.taichi_engine import _import_taichi
 from cases import get_case
+from cases.dam_break import clock_spread_rms
 from refsim.testing import accuracy
 
 VV = "velocity_verlet"
@@ -22,8 +23,9 @@ CASE = get_case("dam_break")
 _import_taichi()  # CI must have every engine: fail here, not skip
 
 
-def _scene(variant="res20", resolution=10, walls="no_slip"):
-    p = CASE.variant_params(variant, {"resolution": resolution, "walls": walls})
+def _scene(variant="res20", resolution=10, walls="no_slip", pressure="tension", delta=0.1):
+    p = CASE.variant_params(variant, {"resolution": resolution, "walls": walls,
+                                      "pressure": pressure, "delta": delta})
     return p, CASE.scene(p), CASE.reference_dt(p)
 
 
@@ -33,19 +35,24 @@ def _differences(a, b):
     return {k: float(np.abs(oa[k] - ob[k]).max()) for k in ("x", "v", "rho", "mass")}
 
 
-@pytest.mark.parametrize("walls", ["no_slip", "free_slip"])
-def test_agrees_with_refsim_numpy_engine_to_round_off(walls):
+@pytest.mark.parametrize("walls,pressure", [("no_slip", "clamped"), ("free_slip", "clamped"),
+                                            ("no_slip", "tension")])
+def test_agrees_with_refsim_numpy_engine_to_round_off(walls, pressure):
     """Same particles, parameters, model and step: after 300 steps of the dam break at a/dx =
-    10 (200 fluid, 648 wall particles, fluid speeds up to ~0.6 m/s, rho ~ 1000) the engines
-    differ by about 5e-16 m in x, 2e-13 m/s in v and 3e-11 kg/m^3 in rho (measured), i.e.
-    1e-14 to 1e-13 relative. They cannot agree to the bit: each particle's sums (~20 neighbours,
-    pressure terms ~100 g cancelling to g) are added in a different order (numpy: pair list by
-    cell sort and bincount; taichi: each particle's own 3 x 3 cells in index order), which
-    leaves ~1e-14 relative in the first accelerations; the chaotic flow then grows it slowly.
-    The initial states are identical to the bit (the same construction functions)."""
-    p, scene, dt = _scene(walls=walls)
+    10 (200 fluid, 648 wall particles, fluid speeds up to ~0.6 m/s, rho ~ 1000; delta-SPH on)
+    the engines differ by at most 2e-16 m in x, 1.4e-14 m/s in v and 4e-12 kg/m^3 in rho
+    (measured, all three wall/pressure models), i.e. 1e-15 to 1e-14 relative. They cannot
+    agree to the bit: each particle's sums (~20 neighbours, pressure terms ~100 g cancelling
+    to g) are added in a different order (numpy: pair list by cell sort and bincount; taichi:
+    each particle's own 3 x 3 cells in index order), which leaves ~1e-15 relative in the first
+    accelerations; the flow then grows it slowly (without delta-SPH 10x faster: 2e-13 m/s).
+    The bounds are 10x the measured differences. The initial states are identical to the bit
+    (the same construction functions)."""
+    p, scene, dt = _scene(walls=walls, pressure=pressure)
+    assert scene.fluid.delta == 0.1  # the case's default: delta-SPH on
     a, b = TAICHI.build(scene, dt, VV), REFSIM.build(scene, dt, VV)
-    assert a.settings()["walls"] == b.settings()["walls"]
+    for key in ("walls", "pressure", "delta_sph"):
+        assert a.settings()[key] == b.settings()[key]
     assert _differences(a, b) == {"x": 0.0, "v": 0.0, "rho": 0.0, "mass": 0.0}
     worst = {}
     for _ in range(6):
@@ -53,7 +60,7 @@ def test_agrees_with_refsim_numpy_engine_to_round_off(walls):
         b.step(50)
         d = _differences(a, b)
         worst = {k: max(worst.get(k, 0.0), d[k]) for k in d}
-    assert worst["x"] < 1e-14 and worst["v"] < 2e-12 and worst["rho"] < 5e-10, worst
+    assert worst["x"] < 2e-15 and worst["v"] < 2e-13 and worst["rho"] < 5e-11, worst
     assert worst["mass"] == 0.0
     assert np.abs(b.observe()["v"]).max() > 0.3  # the column is really collapsing
 
@@ -68,18 +75,20 @@ def test_hydrostatic_tank_settles_to_rho_g_h():
 
 
 def test_dam_break_front_matches_the_in_house_engine():
-    """a/dx = 10: measured front_err_rms 0.5899 (taichi) and 0.5895 (refsim), the same fitted
-    time shift (-0.1903): the runs differ by round-off only, which the flow amplifies into
-    front positions a few 1e-3 apart late in the run."""
+    """a/dx = 10: measured front_err_rms 0.626 for refsim (time shift -0.190); taichi must
+    agree to 0.02 (the runs differ by round-off only, which the flow amplifies into front
+    positions a few 1e-3 apart late in the run) and lie within the experiment's own 10 %
+    spread in T (RMS 0.66 in Z, from the table)."""
     p, scene, dt = _scene()
     rows = {eng: accuracy("dam_break", "res20", eng, VV, dt, resolution=10)
             for eng in ("taichi", "refsim")}
     ti_row, np_row = rows["taichi"], rows["refsim"]
     assert ti_row["status"] == "ok", ti_row["reason"]
-    assert ti_row["within_tol"] and ti_row["mass_drift"] == 0.0
+    assert ti_row["mass_drift"] == 0.0
+    assert ti_row["front_err_rms"] < clock_spread_rms(0.10)  # the experiment's own spread
     assert ti_row["front_err_rms"] == pytest.approx(np_row["front_err_rms"], abs=0.02)
     assert ti_row["time_shift"] == pytest.approx(np_row["time_shift"], abs=0.02)
-    assert ti_row["density_dev_mean"] < 0.03
+    assert ti_row["density_dev_max"] < 0.03  # issue 5: density within 3 %
 
 
 def test_settings_report_model_and_particle_counts():
@@ -121,7 +130,11 @@ def test_refusals_and_non_finite_state():
         TAICHI.build(scene, dt, "symplectic_euler")
     assert TAICHI.supports(scene, VV) is None and TAICHI.variants(scene) == (
         "", "launch_per_step", "parallel")
-    sim = TAICHI.build(scene, 100 * dt, VV)  # far past the acoustic CFL limit: nan in 6 steps
+    # far past the acoustic CFL limit, without delta-SPH and with the pressure clamp: the
+    # density goes negative and Tait's power makes nan within 40 steps (with delta-SPH the
+    # particles fly apart to ~1e12 m instead, finite)
+    p, scene, dt = _scene(pressure="clamped", delta=0.0)
+    sim = TAICHI.build(scene, 100 * dt, VV)
     sim.step(40)
     assert sim.failure and "non-finite" in sim.failure
     h = CASE.variant_params("hydrostatic", {"resolution": 10})
