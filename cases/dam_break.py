@@ -16,17 +16,31 @@ the bed is part of the sheet of water, even where the sheet is one particle thic
 Metrics: `front_err_rms` (RMS of Z errors over the table's points inside the run, after the
 shift; also err_rms; err_max is the largest |dZ|), `time_shift` (T units), `mass_drift` (mass
 that left the tank, / total), `density_dev_max` / `density_dev_mean` (|rho/rho0 - 1| over the
-fluid, max and mean over the run), mechanical energy (kinetic + potential, `energy_drift` is
-its largest change over the potential energy released, M g a / 2... scaled by the column's
-potential energy M g H / 2).
+fluid, max and mean over the run), `min_spacing` (closest two fluid particles over the run,
+/ dx: pairing shows here), mechanical energy (kinetic + potential; `energy_drift` is its
+largest change over the column's potential energy M g H / 2).
+
+Model defaults (refsim.models.sph, the same in taichi): alpha = 0.02 (chosen before any
+comparison, never fitted), delta-SPH diffusion delta = 0.1 (Antuono et al. 2010's value),
+and the pressure is a gauge pressure that may go negative (`pressure=tension`, as in
+delta-SPH; real water carries a few kPa below atmospheric without cavitating). With
+`pressure=clamped` (variant `res40_clamped`) nothing pulls a stretched region back: the
+continuity density of the one-particle sheet at the tip falls by up to 10 % (a/dx = 40),
+while with tension it stays within 0.6 %; tension's price is particle pairing where the
+pressure is negative (`min_spacing` down to ~0.01-0.05 dx, in the rarefaction behind the
+collapsing column and at the tip: the tensile instability), which the clamp limits to ~0.14
+dx at the tip.
 
 Walls: dummy particles (Adami 2012). By default the artificial viscosity also acts between
 fluid and wall particles: a numerical no-slip bed whose effective viscosity alpha c0 h / 8
 (7e-5 m^2/s at a/dx = 40, 70 x water's) slows the thin surge front, less as dx shrinks.
 `walls=free_slip` (variant `res40_free_slip`) acts through pressure only: the inviscid limit,
 whose front runs at Ritter's dZ/dT = 2, faster than the experiment's 1.66 late on (bed
-friction and the gate in the experiment). Measured at a/dx = 40 (refsim): no-slip RMS 0.18
-(front late behind the data), free-slip 0.33 (ahead): the data lie between the two limits.
+friction, the gate and the contact line in the experiment). The front error is set by that
+bed friction, not by a discretisation error that shrinks as dx: at a/dx = 20, halving alpha
+moves front_err_rms as much as halving dx does (nu_eff ~ alpha h), and as h -> 0 at fixed
+alpha the no-slip front tends to the free-slip (inviscid) one, which is 0.3 from the data
+with the shift at its bound. Measured values: the closing note of issue 5 and the report.
 
 Sub-case `hydrostatic`: a closed tank (width a, depth H = a), no release. After settling (the
 second half of the run) the bed pressure, averaged over that half (WCSPH pressure carries

@@ -138,7 +138,7 @@ def sphere_box_costs(sizes=(100, 1000, 10_000), steps=50, repeats=3):
     return list(zip(sizes, costs)), exponent
 
 
-def sph_throughput(resolutions=(50, 100, 200), steps=(40, 20, 8)):
+def sph_throughput(resolutions=(50, 100, 200), steps=(40, 30, 16)):
     """[(fluid particles, {engine label: fluid particle-steps/s})] for the dam break at a/dx
     = each resolution (2 res^2 fluid particles), refsim and every taichi fluid variant."""
     from adapters import get_engine
