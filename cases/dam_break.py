@@ -37,10 +37,13 @@ fluid and wall particles: a numerical no-slip bed whose effective viscosity alph
 `walls=free_slip` (variant `res40_free_slip`) acts through pressure only: the inviscid limit,
 whose front runs at Ritter's dZ/dT = 2, faster than the experiment's 1.66 late on (bed
 friction, the gate and the contact line in the experiment). The front error is set by that
-bed friction, not by a discretisation error that shrinks as dx: at a/dx = 20, halving alpha
-moves front_err_rms as much as halving dx does (nu_eff ~ alpha h), and as h -> 0 at fixed
-alpha the no-slip front tends to the free-slip (inviscid) one, which is 0.3 from the data
-with the shift at its bound. Measured values: the closing note of issue 5 and the report.
+bed friction, not by a discretisation error that shrinks as dx: halving alpha does what
+halving dx does (nu_eff ~ alpha h; measured front_err_rms 0.423 at a/dx = 20, 0.275 at 20
+with alpha / 2, 0.235 at 40; 0.101 at 40 with alpha / 2, 0.109 at 80), and as h -> 0 at
+fixed alpha the no-slip front tends to the free-slip (inviscid) one, which moves away from
+the data as dx shrinks (0.300 at a/dx = 40, 0.391 at 80, the shift at its bound): the no-slip
+sequence 0.42, 0.24, 0.11 (a/dx = 20, 40, 80) passes the data on its way there. Study:
+reports/dam_break_study/.
 
 Sub-case `hydrostatic`: a closed tank (width a, depth H = a), no release. After settling (the
 second half of the run) the bed pressure, averaged over that half (WCSPH pressure carries
