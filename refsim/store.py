@@ -141,9 +141,23 @@ def row_key(row: dict) -> tuple:
     return tuple(_key_value(row[k]) for k in KEY)
 
 
+# results columns that hold text (an empty string is a value there, not a missing number)
+TEXT_COLUMNS = ("run_id", "case", "variant", "engine", "engine_variant", "integrator",
+                "params", "engine_version", "status", "reason", "settings", "tol_reason",
+                "timing", "within_tol", "tol_capped")
+
+
 def load_results(run_dir: Path) -> pd.DataFrame:
     table = pd.read_csv(Path(run_dir) / "results.csv", keep_default_na=False,
                         na_values=["nan"])
+    for col in [c for c in table.columns if c not in TEXT_COLUMNS
+                and not pd.api.types.is_numeric_dtype(table[c])]:
+        # a number column written with "" for its missing values (pandas' default, as when
+        # two runs' tables are merged by hand) is read as text: numbers again, "" as nan
+        values = table[col].replace("", "nan")
+        numbers = pd.to_numeric(values, errors="coerce")
+        if numbers.notna().sum() == (values != "nan").sum():
+            table[col] = numbers
     for col in ("variant", "engine_variant", "reason"):
         if col in table:
             table[col] = table[col].astype(str)

@@ -102,3 +102,27 @@ def test_report_renders_in_headless_chromium(run_dir, tmp_path):
                           (run_dir / "report.html").as_uri()],
                          capture_output=True, text=True, timeout=120, check=True).stdout
     assert dom.count("<img") == (run_dir / "report.html").read_text().count("<img")
+
+
+def test_results_merged_by_hand_with_empty_missing_values_still_report(run_dir, tmp_path):
+    """A results.csv re-written by pandas (missing numbers as "", not refsim's "nan"), as when
+    two runs are merged by hand: numbers stay numbers, text stays text, the report is written
+    (it crashed with a TypeError before)."""
+    import pandas as pd
+    from refsim.report import write_report
+    from refsim.store import load_results
+    merged = tmp_path / "merged"
+    merged.mkdir()
+    for name in ("manifest.json", "series.jsonl"):
+        (merged / name).write_bytes((run_dir / name).read_bytes())
+    original = load_results(run_dir)
+    original.to_csv(merged / "results.csv", index=False)  # NaN written as ""
+    assert ",," in (merged / "results.csv").read_text()
+    table = load_results(merged)
+    for col in ("err_rms", "energy_drift", "dt", "order"):
+        assert table[col].dtype.kind == "f", col
+        pd.testing.assert_series_equal(table[col], original[col])
+    for col in ("engine_variant", "reason", "status"):
+        assert list(table[col]) == list(original[col]), col
+    md, _ = write_report(merged)
+    assert md.read_text().count("## ") >= 2
