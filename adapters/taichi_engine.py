@@ -541,7 +541,8 @@ def _define_sph(ti, lib) -> dict:
     sph_t = ti.types.argpack(
         n_fluid=i32, no_slip=i32, tension=i32, mass=f64, h=f64, rho0=f64, c0=f64, alpha=f64,
         delta=f64, gravity=vec2, cell_min=f64,
-        rho=nd_f64, p=nd_f64, drho=nd_f64, diffused=nd_f64, acc=nd_vec2, cell_count=nd_i32, cell_start=nd_i32,
+        rho=nd_f64, p=nd_f64, drho=nd_f64, diffused=nd_f64, acc=nd_vec2, cell_count=nd_i32,
+        cell_start=nd_i32,
         cell_of=nd_i32, order=nd_i32, grid=nd_f64, dims=nd_i32, stats=nd_i64)
     pi = math.pi
 
@@ -630,10 +631,16 @@ def _define_sph(ti, lib) -> dict:
 
     # -- rates, each gathered by its owner -----------------------------------------------------
     @ti.func
-    def continuity(x: ti.template(), v: ti.template(), S: ti.template(), i):
-        """d rho_i/dt = sum_j m (v_i - v_j) . grad_i W_ij (walls at rest)."""
+    def density_rates(x: ti.template(), v: ti.template(), S: ti.template(), i,
+                      diffuse: ti.template()):
+        """(continuity, delta-SPH diffusion) of particle i in one gather over its neighbours:
+        d rho_i/dt = sum_j m (v_i - v_j) . grad_i W_ij (walls at rest), and (when `diffuse`
+        and delta > 0) the diffusion with the hydrostatic part taken out, fluid-fluid:
+        sum_j 2 delta h c0 m |F_ij| (rho_j - rho_i - rho^H_ji) / rho_j, rho^H_ji =
+        rho0 ((1 - 7 g . (x_i - x_j) / c0^2)^(1/7) - 1) (0 without `diffuse`)."""
         reach = 2.0 * S.h
-        out = 0.0
+        g = S.gravity
+        rate, diffused = 0.0, 0.0
         for dy in range(-1, 2):
             s0, s1 = row_span(S, i, dy)
             for s in range(s0, s1):
@@ -644,32 +651,15 @@ def _define_sph(ti, lib) -> dict:
                     if r < reach:
                         grad = gradient_factor(r, S.h) * d
                         dv = v[i] - v[j]
-                        out += S.mass * (dv[0] * grad[0] + dv[1] * grad[1])
-        return out
-
-    @ti.func
-    def diffusion(x: ti.template(), S: ti.template(), i):
-        """delta-SPH density diffusion with the hydrostatic part taken out (fluid-fluid):
-        sum_j 2 delta h c0 m |F_ij| (rho_j - rho_i - rho^H_ji) / rho_j, rho^H_ji =
-        rho0 ((1 - 7 g . (x_i - x_j) / c0^2)^(1/7) - 1)."""
-        reach = 2.0 * S.h
-        g = S.gravity
-        out = 0.0
-        for dy in range(-1, 2):
-            s0, s1 = row_span(S, i, dy)
-            for s in range(s0, s1):
-                j = S.order[s]
-                if j != i and j < S.n_fluid:
-                    d = x[i] - x[j]
-                    r = ti.sqrt(d[0] * d[0] + d[1] * d[1])
-                    if r < reach:
-                        grad = gradient_factor(r, S.h) * d
-                        weight = -2.0 * S.delta * S.h * S.c0 * S.mass * (
-                            grad[0] * d[0] + grad[1] * d[1]) / (r * r)
-                        head = SPH_GAMMA * (d[0] * g[0] + d[1] * g[1]) / (S.c0 * S.c0)
-                        down = S.rho0 * (ti.pow(1.0 - head, 1.0 / SPH_GAMMA) - 1.0)
-                        out += weight * (S.rho[j] - S.rho[i] - down) / S.rho[j]
-        return out
+                        rate += S.mass * (dv[0] * grad[0] + dv[1] * grad[1])
+                        if ti.static(diffuse):
+                            if S.delta != 0.0 and j < S.n_fluid:
+                                weight = -2.0 * S.delta * S.h * S.c0 * S.mass * (
+                                    grad[0] * d[0] + grad[1] * d[1]) / (r * r)
+                                head = SPH_GAMMA * (d[0] * g[0] + d[1] * g[1]) / (S.c0 * S.c0)
+                                down = S.rho0 * (ti.pow(1.0 - head, 1.0 / SPH_GAMMA) - 1.0)
+                                diffused += weight * (S.rho[j] - S.rho[i] - down) / S.rho[j]
+        return rate, diffused
 
     @ti.func
     def fluid_pressure(S: ti.template(), i):
@@ -681,7 +671,8 @@ def _define_sph(ti, lib) -> dict:
 
     @ti.func
     def pressures(x: ti.template(), S: ti.template()):
-        """Fluid: p = Tait(rho) (clamped at 0 without tension). Walls (Adami 2012, eq. 27, wall at rest):
+        """Fluid: p = Tait(rho) (clamped at 0 without tension). Walls (Adami 2012, eq. 27,
+        wall at rest):
         p_w = max((sum p_f W + sum rho_f ((x_w - x_f) . g) W) / sum W, 0) (0 without fluid
         neighbours), rho_w from the inverted equation of state."""
         for i in range(S.n_fluid):
@@ -769,15 +760,12 @@ def _define_sph(ti, lib) -> dict:
             for i in range(nf):
                 v[i] = v[i] + half * S.acc[i]
             for i in range(nf):
-                S.drho[i] = continuity(x, v, S, i)
-                S.diffused[i] = 0.0
-                if S.delta != 0.0:
-                    S.diffused[i] = diffusion(x, S, i)
+                S.drho[i], S.diffused[i] = density_rates(x, v, S, i, True)
             for i in range(nf):
                 x[i] = x[i] + dt * v[i]
             build_grid(x, S)
             for i in range(nf):
-                S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i)) + (
+                S.rho[i] = S.rho[i] + half * (S.drho[i] + density_rates(x, v, S, i, False)[0]) + (
                     dt * S.diffused[i])
             accelerations(x, v, S)
             for i in range(nf):
@@ -794,17 +782,14 @@ def _define_sph(ti, lib) -> dict:
         for i in range(S.n_fluid):
             v[i] = v[i] + half * S.acc[i]
         for i in range(S.n_fluid):
-            S.drho[i] = continuity(x, v, S, i)
-            S.diffused[i] = 0.0
-            if S.delta != 0.0:
-                S.diffused[i] = diffusion(x, S, i)
+            S.drho[i], S.diffused[i] = density_rates(x, v, S, i, True)
         for i in range(S.n_fluid):
             x[i] = x[i] + dt * v[i]
         ti.loop_config(serialize=True)
         for _ in range(1):
             build_grid(x, S)
         for i in range(S.n_fluid):
-            S.rho[i] = S.rho[i] + half * (S.drho[i] + continuity(x, v, S, i)) + (
+            S.rho[i] = S.rho[i] + half * (S.drho[i] + density_rates(x, v, S, i, False)[0]) + (
                 dt * S.diffused[i])
         for i in range(S.n_fluid):
             S.p[i] = fluid_pressure(S, i)
@@ -1249,7 +1234,8 @@ class SphereSim(_KernelSim):
 class FluidSim(_KernelSim):
     """2D weakly compressible SPH (feature "fluid"): refsim's model (`refsim.models.sph`:
     Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH density diffusion, Adami 2012 wall
-    particles, negative pressures clamped to 0 or kept) and refsim's kick-drift-kick step with the trapezoid density drift,
+    particles, negative pressures clamped to 0 or kept) and refsim's kick-drift-kick step
+    with the trapezoid density drift,
     as taichi kernels (`_define_sph`). Particles, masses and initial densities are built by
     the in-house engine's own functions (`adapters.refsim_sph`), so both engines start from
     the same bits."""

@@ -17,8 +17,8 @@ def _block(nx=20, ny=20):
 
 def _model(gravity, delta=0.1, tension=False):
     # one wall particle far outside every kernel support: no fluid-wall pairs
-    return WCSPH(np.array([[-0.5, -0.5]]), MASS, H, RHO0, C0, alpha=0.02, gravity=gravity, delta=delta,
-                 tension=tension)
+    return WCSPH(np.array([[-0.5, -0.5]]), MASS, H, RHO0, C0, alpha=0.02, gravity=gravity,
+                 delta=delta, tension=tension)
 
 
 def test_diffusion_takes_out_the_hydrostatic_density_difference():

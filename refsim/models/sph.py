@@ -130,8 +130,8 @@ class WCSPH:
         D_i = delta h c0 sum_j 2 (rho_j - rho_i - rho^H_ji) (x_j - x_i) . grad_i W_ij / r^2
         m / rho_j, rho^H_ji = rho0 ((1 + rho0 g . (x_j - x_i) / B)^(1/7) - 1), B = rho0 c0^2 / 7.
         rho^H is Tait's density of the head taken from rho0: for a fluid in hydrostatic balance
-        it cancels the density difference to first order in the head. Without gravity sum_i V_i D_i = 0
-        (each pair's two terms cancel, V = m / rho); with it, up to the pair's
+        it cancels the density difference to first order in the head. Without gravity
+        sum_i V_i D_i = 0 (each pair's two terms cancel, V = m / rho); with it, up to the pair's
         rho^H_ij + rho^H_ji = O((7 g r / c0^2)^2) ~ 1e-9 rho0 at the dam break's Mach 0.1."""
         i, j, d, r, grad = geom
         fluid = j < n
