@@ -34,8 +34,8 @@ def best_time(fn, repeats=5):
 
 
 def single_pendulum_rk4(steps=20000, repeats=5):
-    from adapters import get_engine
-    from cases import get_case
+    from refsim.registry import get_engine
+    from refsim.registry import get_case
     case = get_case("pendulum")
     scene = case.scene(case.variant_params("default"))
     engine = get_engine("refsim")
@@ -119,8 +119,8 @@ def time_to_target(repeats=5):
 def sphere_box_costs(sizes=(100, 1000, 10_000), steps=50, repeats=3):
     """us per step of the in-house discrete contact step on the box of N spheres, and the
     least-squares exponent of cost against N."""
-    from adapters import get_engine
-    from cases import get_case
+    from refsim.registry import get_engine
+    from refsim.registry import get_case
     case, engine = get_case("colliding_spheres"), get_engine("refsim")
     costs = []
     for n in sizes:
@@ -141,8 +141,8 @@ def sphere_box_costs(sizes=(100, 1000, 10_000), steps=50, repeats=3):
 def sph_throughput(resolutions=(50, 100, 200), steps=(40, 30, 16)):
     """[(fluid particles, {engine label: fluid particle-steps/s})] for the dam break at a/dx
     = each resolution (2 res^2 fluid particles), refsim and every taichi fluid variant."""
-    from adapters import get_engine
-    from cases import get_case
+    from refsim.registry import get_engine
+    from refsim.registry import get_case
     case = get_case("dam_break")
     out = []
     for res, n in zip(resolutions, steps):

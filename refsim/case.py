@@ -11,7 +11,11 @@ Contract for an implementer (one module in `cases/`, one `Case` subclass instanc
 5. `energy(p, obs)` (None where energy means nothing) and `energy_scale(p)`;
 6. `tolerance(p, integrator, order, dt, engine_variant, settings)` returns (tol, reason): the
    bound the error must meet, derived from the method's order and the engine's effective
-   settings (e.g. a penalty stiffness), with its reason.
+   settings (e.g. a penalty stiffness), with its reason;
+7. `order_meaningful` (False where no convergence order in dt exists, e.g. impulses resolved
+   exactly) and `figures(p)`: extra report figures as data (see `figures`), so the report asks
+   the case and never branches on its name. `definition(variant, p)` is what the store keeps of
+   the case as run; `report` and `compare` read that, not today's code.
 """
 from __future__ import annotations
 
@@ -147,6 +151,27 @@ class Case:
     def source_hash(self) -> str:
         source = inspect.getsource(inspect.getmodule(type(self)))
         return hashlib.sha256(source.encode()).hexdigest()[:16]
+
+    order_meaningful = True  # a convergence order in dt means something for this case
+
+    def figures(self, p) -> list[dict]:
+        """Extra report figures, as JSON-serialisable data. One kind exists:
+        {"kind": "trace_over_data", "title": str, "x": series key, "y": series key,
+         "x_shift_column": results column added to x (or None), "x_label": str,
+         "y_label": str, "data": {"x": [...], "y": [...], "label": str}}
+        draws each row's stored series y(x) over measured points."""
+        return []
+
+    def definition(self, variant: str, p: dict) -> dict:
+        """The case as run, for the store: everything the report and compare read."""
+        observable, units = self.observed(p)
+        return {"case": self.name, "variant": variant, "description": self.description,
+                "tags": list(self.tags), "params": p, "observable": observable,
+                "units": units, "tolerance_column": self.tolerance_column(p),
+                "target_error": self.target_error(p), "error_floor": self.error_floor(p),
+                "error_ceiling": self.error_ceiling(p), "energy_scale": self.energy_scale(p),
+                "reference_dt": self.reference_dt(p), "order_meaningful": self.order_meaningful,
+                "figures": self.figures(p), "source_hash": self.source_hash()}
 
     def tolerance_column(self, p) -> str:
         """The results column the tolerance bounds (by default `tolerance_norm`)."""

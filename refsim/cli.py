@@ -107,8 +107,8 @@ def main(argv=None) -> int:
 
 
 def cmd_list() -> int:
-    from adapters import engine_names, get_engine
-    from cases import case_names, get_case
+    from refsim.registry import engine_names, get_engine
+    from refsim.registry import case_names, get_case
     from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
 
     print("cases:")
@@ -138,7 +138,7 @@ def _positive_int(name, value):
 
 
 def _params(specs, cases):
-    from cases import get_case
+    from refsim.registry import get_case
     out = {}
     for spec in specs:
         key, sep, value = spec.partition("=")
@@ -158,7 +158,7 @@ def _params(specs, cases):
 def cmd_run(args, argv) -> int:
     from pathlib import Path
 
-    from cases import case_names
+    from refsim.registry import case_names
     from refsim import runner, store
     from refsim.summary import print_summary, progress_printer
 
@@ -199,8 +199,8 @@ def cmd_run(args, argv) -> int:
 
 
 def _manifest(spec, argv, jobs) -> dict:
-    from adapters import get_engine
-    from cases import get_case
+    from refsim.registry import get_engine
+    from refsim.registry import get_case
     from refsim import store
 
     engines = sorted({j.engine for j in jobs})

@@ -274,7 +274,7 @@ def _error_column(row) -> str:
 def _case_and_params(row):
     """The case (from this tree) and its parameters for a row; (None, None) when the case or
     its variant no longer exists."""
-    from cases import get_case
+    from refsim.registry import get_case
     try:
         case = get_case(row["case"])
         return case, case.variant_params(row["variant"], _params(row))

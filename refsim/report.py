@@ -101,7 +101,7 @@ def _header(manifest, table):
 
 
 def _case_section(case_name, variant, rows, series, target_error, out):
-    from cases import get_case
+    from refsim.registry import get_case
     from refsim.store import row_key
     case = get_case(case_name)
     p = case.variant_params(variant, json.loads(rows["params"].iloc[0] or "{}"))

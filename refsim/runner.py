@@ -14,8 +14,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pandas as pd
 
-from adapters import engine_names, get_engine
-from cases import case_names, get_case
+from refsim.registry import engine_names, get_engine
+from refsim.registry import case_names, get_case
 from refsim.integrators import INTEGRATORS, get_integrator
 from refsim.metrics import convergence_order, energy_drift, error_norms
 

@@ -123,7 +123,7 @@ def options(args) -> dict:
 
 
 def _engines(names):
-    from adapters import engine_names, get_engine
+    from refsim.registry import engine_names, get_engine
     known = engine_names()
     for name in names or []:
         if name not in known:
@@ -135,14 +135,14 @@ def _engines(names):
 
 
 def _available(names):
-    from adapters import get_engine
+    from refsim.registry import get_engine
     return [n for n in names if get_engine(n).available()]
 
 
 def _integrators(names, engines):
     if not names:
         return None
-    from adapters import get_engine
+    from refsim.registry import get_engine
     offered = list(dict.fromkeys(i for e in engines for i in get_engine(e).integrators))
     for name in names:
         if name.partition(":")[0] not in offered:
@@ -177,8 +177,8 @@ def _dt(value):
 
 
 def manifest(opts) -> dict:
-    from adapters import get_engine
-    from cases import get_case
+    from refsim.registry import get_engine
+    from refsim.registry import get_case
     versions = {e: get_engine(e).version() for e in opts["engines"]}
     threads = os.environ.get("OMP_NUM_THREADS", "1")
     env = store.environment(versions, {"stiff_spring": get_case("stiff_spring").source_hash()},
@@ -209,7 +209,7 @@ def command(opts) -> str:
 def limit_jobs(opts, spring) -> tuple[list, list]:
     """([(engine, integrator)] to search, ["engine integrator (why skipped)"]): fixed-step
     integrators the engine supports on the spring, those of --integrator if given."""
-    from adapters import get_engine
+    from refsim.registry import get_engine
     jobs, skipped = [], []
     for name in opts["engines"]:
         engine = get_engine(name)
@@ -289,7 +289,7 @@ def sweep_integrators(engine, requested=None):
 
 
 def sweep_table(opts, ks=SWEEP_K) -> pd.DataFrame:
-    from adapters import get_engine
+    from refsim.registry import get_engine
     rows = []
     for name in opts["engines"]:
         engine = get_engine(name)

@@ -76,7 +76,7 @@ class Spring:
     """The stiff-spring case at fixed parameters: scene, omega, E0 and a batch energy."""
 
     def __init__(self, **overrides):
-        from cases import get_case
+        from refsim.registry import get_case
         self.case = get_case("stiff_spring")
         self.p = self.case.variant_params("default", {**SPRING_PARAMS, **overrides})
         self.scene = self.case.scene(self.p)

@@ -35,7 +35,7 @@ def _fmt(value, spec):
 def reference_rows(table: pd.DataFrame) -> pd.DataFrame:
     """One row per case x variant x engine x integrator: the one at the case's reference dt
     (or the finest dt run when the reference dt was not in the sweep)."""
-    from cases import get_case
+    from refsim.registry import get_case
     import json
     picked = []
     for key, group in table.groupby(["case", "variant", "params"], dropna=False, sort=False):

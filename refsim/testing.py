@@ -30,7 +30,7 @@ def accuracy(case, variant, engine, integrator, dt, engine_variant="", **params)
 
 def measured_order(case, variant, engine, integrator, dts, engine_variant="", **params):
     """(slope, points used, errors) of log err_max against log dt over `dts`."""
-    from cases import get_case
+    from refsim.registry import get_case
     from refsim.metrics import convergence_order
 
     rows = [accuracy(case, variant, engine, integrator, dt, engine_variant, **params)
@@ -48,7 +48,7 @@ def measured_order(case, variant, engine, integrator, dts, engine_variant="", **
 def assert_within_tolerance(case, engine, integrator, variant=None, engine_variant="",
                             dt=None, **params) -> dict:
     """Run `case` on `engine` at the case's reference dt (or `dt`) and assert its tolerance."""
-    from cases import get_case
+    from refsim.registry import get_case
     c = get_case(case)
     variant = variant or next(iter(c.variants))
     __tracebackhide__ = True  # pytest shows the failing test, not this helper
@@ -75,8 +75,8 @@ def spring_stable(engine, integrator, y, energy_factor=1e4, periods=100, engine_
 
     import numpy as np
 
-    from adapters import get_engine
-    from cases import get_case
+    from refsim.registry import get_engine
+    from refsim.registry import get_case
     case = get_case("stiff_spring")
     p = case.variant_params("default", params)
     sim = get_engine(engine).build(case.scene(p), y / case.omega(p), integrator, engine_variant)
@@ -102,7 +102,7 @@ _FACTORY_PREFIX = "engine_factory_"
 
 def __getattr__(attr):
     """Registry targets "refsim.testing:engine_factory_<name>" resolve to `_FACTORIES[name]`
-    (adapters.get_engine calls the target with no arguments)."""
+    (registry.get_engine calls the target with no arguments)."""
     name = attr[len(_FACTORY_PREFIX):] if attr.startswith(_FACTORY_PREFIX) else None
     if name in _FACTORIES:
         return _FACTORIES[name]
@@ -112,13 +112,14 @@ def __getattr__(attr):
 def resolve_engine(engine) -> str:
     """The registry name of `engine`: a registered name, an `Engine` subclass or an instance.
 
-    Rules: a name must already be registered (adapters.register(name, "module:Class")). A
+    Rules: a name must already be registered (`refsim.registry.register("engine", name,
+    "module:Class")`). A
     class or instance is registered under its `name` attribute for the rest of the process (a
     class is instantiated with no arguments; an instance is used as given). A name registered
-    by anything else (a built-in engine, an adapters.register call) is never replaced: passing
+    by anything else (a built-in engine, a registry.register call) is never replaced: passing
     a different class under that name raises ValueError. Passing a class or instance again
     under a name this function registered replaces it (a module imported twice)."""
-    from adapters import engine_names, get_engine, register
+    from refsim.registry import engine_names, get_engine, register
 
     if isinstance(engine, str):
         get_engine(engine)  # ValueError naming the registered engines
@@ -140,7 +141,7 @@ def resolve_engine(engine) -> str:
                          f"{cls.__qualname__} a distinct `name`")
     if name in _FACTORIES or name not in engine_names():
         _FACTORIES[name] = factory
-        register(name, f"{__name__}:{_FACTORY_PREFIX}{name}")
+        register("engine", name, f"{__name__}:{_FACTORY_PREFIX}{name}")
     return name
 
 
@@ -154,7 +155,7 @@ def suite(engine, cases=None) -> list[Job]:
     the integrators are the engine's own (`engine.integrators`) that `engine.supports(scene,
     integrator)` accepts. Scenes the engine does not support, and every scene when its
     package is not installed, give no job."""
-    from cases import case_names, get_case
+    from refsim.registry import case_names, get_case
 
     name = resolve_engine(engine)
     cases = [cases] if isinstance(cases, str) else list(cases or case_names())
@@ -191,7 +192,7 @@ def suite_params(engine, cases=None) -> list:
     if jobs:
         return [pytest.param(j, id=job_id(j)) for j in jobs]
     name = resolve_engine(engine)
-    from adapters import get_engine
+    from refsim.registry import get_engine
     why = ("is not installed" if not get_engine(name).available()
            else f"supports none of the scenes of {cases or 'any case'}")
     return [pytest.param(None, id="no-jobs", marks=pytest.mark.skip(reason=f"{name} {why}"))]

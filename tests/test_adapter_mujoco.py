@@ -14,9 +14,9 @@ import mujoco  # noqa: F401  (fail, never skip, when the engine is missing)
 import numpy as np
 import pytest
 
-from adapters import get_engine
+from refsim.registry import get_engine
 from adapters.mujoco_engine import METHODS, POINT_INERTIA
-from cases import get_case
+from refsim.registry import get_case
 from refsim.metrics import bisect_limit, convergence_order
 from refsim.runner import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring

@@ -12,8 +12,8 @@ import numpy as np
 import pybullet  # noqa: F401  (fail, never skip, without the engine)
 import pytest
 
-from adapters import get_engine
-from cases import get_case
+from refsim.registry import get_engine
+from refsim.registry import get_case
 from refsim.metrics import bisect_limit
 from refsim.runner import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring

@@ -13,8 +13,8 @@ import pytest
 
 from refsim.testing import spring_stable
 
-from adapters import get_engine
-from cases import get_case
+from refsim.registry import get_engine
+from refsim.registry import get_case
 from refsim.metrics import bisect_limit, convergence_order
 from refsim.runner import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring

@@ -17,9 +17,9 @@ import pytest
 
 from refsim.testing import spring_stable
 
-from adapters import get_engine
+from refsim.registry import get_engine
 from adapters.taichi_engine import _import_taichi
-from cases import get_case
+from refsim.registry import get_case
 from refsim.metrics import bisect_limit, convergence_order
 from refsim.runner import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring
@@ -227,8 +227,8 @@ def test_fresh_process_compiles_in_build_and_writes_nothing_in_cwd(tmp_path):
         d.mkdir()
     script = textwrap.dedent("""
         import json, time
-        from adapters import get_engine
-        from cases import get_case
+        from refsim.registry import get_engine
+        from refsim.registry import get_case
         c = get_case("pendulum"); p = c.variant_params("default")
         eng = get_engine("taichi")
         first = eng.build(c.scene(p), 1e-3, "rk4")

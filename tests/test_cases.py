@@ -4,8 +4,8 @@ import json
 import numpy as np
 import pytest
 
-from adapters import get_engine
-from cases import case_names, get_case
+from refsim.registry import get_engine
+from refsim.registry import case_names, get_case
 from refsim.integrators import INTEGRATORS
 from refsim.runner import Job, run_job
 

@@ -16,7 +16,7 @@ CASES = ["free_fall", "stiff_spring"]
 @pytest.fixture(scope="module")
 def baseline(tmp_path_factory):
     """A real stored run: free_fall and stiff_spring on refsim, two integrators (4 rows)."""
-    from cases import get_case
+    from refsim.registry import get_case
     jobs = runner.expand(cases=CASES, engines=["refsim"],
                          integrators=["symplectic_euler", "velocity_verlet"], quick=True)
     hashes = {c: get_case(c).source_hash() for c in CASES}

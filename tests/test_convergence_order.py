@@ -60,7 +60,7 @@ def test_kkt_dopri5_is_at_least_fifth_order():
 def test_symplectic_euler_is_first_order_though_exact_at_whole_periods():
     """Scored only at whole periods from rest, symplectic Euler's error looks second order;
     over the trajectory it is first order."""
-    from cases import get_case
+    from refsim.registry import get_case
     case = get_case("stiff_spring")
     p = case.variant_params("default", {"periods": 1.0})
     at_period, over_path = [], []

@@ -3,7 +3,7 @@ front against Martin & Moyce (1952)."""
 import numpy as np
 import pytest
 
-from cases import get_case
+from refsim.registry import get_case
 from cases.dam_break import clock_spread_rms, martin_moyce
 from refsim.testing import accuracy
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from adapters import get_engine
-from cases import get_case
+from refsim.registry import get_engine
+from refsim.registry import get_case
 from refsim.integrators import INTEGRATORS, get_integrator
 
 DT, STEPS = 1e-3, 1000

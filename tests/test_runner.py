@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-import adapters
+from refsim import registry
 from refsim.engine import Engine
 from refsim.runner import Job, expand, run_job, run_matrix
 from refsim.store import RunStore, load_results
@@ -25,11 +25,11 @@ class MissingEngine(BrokenEngine):
 
 @pytest.fixture
 def fake_engines():
-    adapters.register("broken", f"{__name__}:BrokenEngine")
-    adapters.register("missing", f"{__name__}:MissingEngine")
+    registry.register("engine", "broken", f"{__name__}:BrokenEngine")
+    registry.register("engine", "missing", f"{__name__}:MissingEngine")
     yield
     for name in ("broken", "missing"):
-        adapters._REGISTRY.pop(name)
+        registry.unregister("engine", name)
 
 
 def test_failure_is_a_row_not_a_crash(fake_engines, tmp_path):

@@ -11,9 +11,9 @@ import json
 import numpy as np
 import pytest
 
-from adapters import get_engine
+from refsim.registry import get_engine
 from adapters.taichi_engine import _import_taichi
-from cases import get_case
+from refsim.registry import get_case
 from cases.dam_break import clock_spread_rms
 from refsim.testing import accuracy
 

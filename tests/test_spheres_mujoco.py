@@ -17,10 +17,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from adapters import get_engine
+from refsim.registry import get_engine
 from adapters.mujoco_engine import (CONTACT_STEPS, IMPEDANCE, contact_stiffness,
                                     restitution_map, rotate)
-from cases import get_case
+from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Scene, Wall
 from refsim.testing import accuracy
 

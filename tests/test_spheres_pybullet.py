@@ -12,8 +12,8 @@ import numpy as np
 import pybullet  # noqa: F401  (fail, never skip, without the engine)
 import pytest
 
-from adapters import get_engine
-from cases import get_case
+from refsim.registry import get_engine
+from refsim.registry import get_case
 from refsim.models.collisions import resolve_pairs, resolve_walls
 from refsim.scene import Body, ContactModel, Joint, Scene, Wall
 from refsim.testing import accuracy

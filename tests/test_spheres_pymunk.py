@@ -14,8 +14,8 @@ import numpy as np
 import pymunk
 import pytest
 
-from adapters import get_engine
-from cases import get_case
+from refsim.registry import get_engine
+from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Scene, Wall
 from refsim.testing import accuracy
 

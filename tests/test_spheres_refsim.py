@@ -3,7 +3,7 @@ and what the slide's hard-sphere formula does."""
 import numpy as np
 import pytest
 
-from cases import get_case
+from refsim.registry import get_case
 from refsim.models import collisions as col
 from refsim.testing import accuracy
 

@@ -13,9 +13,9 @@ import json
 import numpy as np
 import pytest
 
-from adapters import get_engine
+from refsim.registry import get_engine
 from adapters.taichi_engine import _import_taichi
-from cases import get_case
+from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Joint, Scene, Wall
 from refsim.testing import accuracy
 

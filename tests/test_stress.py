@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from adapters import get_engine
+from refsim.registry import get_engine
 from refsim import stress
 from refsim.integrators import get_integrator
 from refsim.stress_search import (Criterion, Spring, batch_evaluator, batch_stepper,
