@@ -66,10 +66,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--jobs", default=str(min(2, os.cpu_count() or 1)),
                      help="worker processes, one thread each (default: min(2, cores)); "
                      "--jobs 1 for timings with nothing else running")
-    bench = sub.add_parser("bench", help="in-house engine speed figures (one core)")
+    bench = sub.add_parser("bench", help="speed benchmarks (registered under refsim.benches; "
+                           "default: inhouse, the in-house engine on one core)")
+    bench.add_argument("name", nargs="?", default="inhouse", help="bench name (refsim list)")
     bench.add_argument("--quick", action="store_true", help="smaller batch, fewer repeats")
-    bench.add_argument("--sph", action="store_true", help="dam-break SPH throughput, numpy "
-                       "and taichi side by side at ~5k, 20k, 80k particles")
+    bench.add_argument("--sph", action="store_true", help="the same as `refsim bench sph`: "
+                       "dam-break SPH throughput, numpy and taichi side by side")
     for name, text in SUBCOMMANDS.items():
         module = importlib.import_module(f"refsim.{name}")
         module.add_arguments(sub.add_parser(name, help=text))
@@ -92,8 +94,8 @@ def main(argv=None) -> int:
         if args.command == "run":
             return cmd_run(args, argv)
         if args.command == "bench":
-            from refsim.bench import main as bench_main
-            return bench_main(quick=args.quick, sph=args.sph)
+            from refsim.registry import entry
+            return entry("bench", "sph" if args.sph else args.name).load()(quick=args.quick)
         if args.command in SUBCOMMANDS:
             return importlib.import_module(f"refsim.{args.command}").main(args)
     except ValueError as exc:
@@ -107,20 +109,24 @@ def main(argv=None) -> int:
 
 
 def cmd_list() -> int:
-    from refsim.registry import engine_names, get_engine
-    from refsim.registry import case_names, get_case
+    from refsim.registry import entries, get_case, get_engine
     from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
 
     print("cases:")
-    for name in case_names():
+    for name, found in entries("case").items():
         case = get_case(name)
         print(f"  {name:18s} {case.description}")
         print(f"  {'':18s} variants: {', '.join(case.variants)}")
+        print(f"  {'':18s} from: {found.origin} ({found.target})")
     print("engines:")
-    for name in engine_names():
+    for name, found in entries("engine").items():
         eng = get_engine(name)
         state = f"available {eng.version()}" if eng.available() else "unavailable"
         print(f"  {name:18s} {state:22s} integrators: {', '.join(eng.integrators)}")
+        print(f"  {'':18s} from: {found.origin} ({found.target})")
+    print("benches:")
+    for name, found in entries("bench").items():
+        print(f"  {name:18s} from: {found.origin} ({found.target})")
     print("integrators:")
     for name in INTEGRATORS:
         d = get_integrator(name).describe()
@@ -178,6 +184,8 @@ def cmd_run(args, argv) -> int:
     jobs = runner.expand(**spec)
     if not args.resume:
         st = store.RunStore.create(root, _manifest(spec, argv, jobs))
+    from refsim.definitions import for_jobs
+    st.add_definitions(for_jobs(jobs))
     workers = _positive_int("--jobs", args.jobs)
     table = runner.run_matrix(jobs, st, repeats=repeats, progress=progress_printer(),
                               workers=workers)

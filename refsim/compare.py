@@ -24,8 +24,14 @@ both is "improved" too when it came back within tolerance, or when err_A (above 
 exceeds error_threshold x err_B; timings never make a row "improved".
 
 The error compared is the column the case's tolerance bounds (`Case.tolerance_column`: err_max
-for most cases, err_rms for dam_break, conservation_err for Newton's cradle), looked up from the
-case in this tree; err_max when the case no longer exists.
+for most cases, err_rms of the front for a fluid surge, conservation_err for a cradle), read
+with the case's error floor from run A's stored case definitions (refsim.definitions), never
+from today's code (a run stored before definitions were kept falls back to today's, saying so).
+
+Reorganised cases: `--rename OLD=NEW` (a case) or `--rename OLD/VARIANT=NEW/VARIANT` maps run
+A's rows onto run B's names before matching; `--allow-source-change` compares rows whose case
+source hash differs (a refactor that moved a case's code), saying so in every such row's
+reasons, instead of refusing them. Parameters must still be equal.
 
 `main` returns 1 when any row regressed (so the command can gate CI), else 0. Bad input raises
 ValueError naming the parameter: a path that is not a stored run, a threshold <= 1 or not
@@ -43,6 +49,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from refsim.definitions import Definitions
 from refsim.store import DEFAULT_ROOT, KEY, atomic_write, load_results, row_key
 
 DEFAULT_ERROR_THRESHOLD = 1.10
@@ -65,6 +72,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              f"{DEFAULT_TIME_THRESHOLD}; timings are noisy)")
     parser.add_argument("--no-time", action="store_true", help="show timings, never flag them")
     parser.add_argument("--out", default=None, help="also write the compared rows to FILE.csv")
+    parser.add_argument("--rename", action="append", default=[], metavar="OLD=NEW",
+                        help="map run A's case OLD (or OLD/VARIANT) to NEW (or NEW/VARIANT) "
+                             "before matching (cases reorganised); repeatable")
+    parser.add_argument("--allow-source-change", action="store_true",
+                        help="compare rows whose case source hash differs (said per row) "
+                             "instead of refusing them")
 
 
 def main(args) -> int:
@@ -72,9 +85,12 @@ def main(args) -> int:
     error_threshold = check_threshold("--error-threshold", args.error_threshold)
     time_threshold = check_threshold("--time-threshold", args.time_threshold)
     out = _check_out(args.out)
+    renames = parse_renames(args.rename)
     run_a, run_b = open_run("RUN_A", args.run_a), open_run("RUN_B", args.run_b)
+    run_a = rename_rows(run_a, renames)
     result = compare_runs(run_a, run_b, error_threshold, time_threshold,
-                          judge_time=not args.no_time)
+                          judge_time=not args.no_time,
+                          allow_source_change=args.allow_source_change)
     if result.compared.empty:
         raise ValueError(f"RUN_B must share at least one comparable row with RUN_A, got none "
                          f"({len(result.refused)} refused, {len(result.only_a)} only in A, "
@@ -113,6 +129,44 @@ class Run:
     dir: Path
     manifest: dict
     rows: dict  # row_key -> row (a key found twice, only by hand-editing, keeps its last row)
+    definitions: Definitions = field(default_factory=lambda: Definitions({}))
+    renamed: dict = field(default_factory=dict)  # new case name -> the name A stored it as
+
+
+def parse_renames(specs) -> list[tuple]:
+    """`OLD=NEW` or `OLD/VARIANT=NEW/VARIANT` -> [(old case, old variant or None, new case,
+    new variant or None)]."""
+    out = []
+    for spec in specs or []:
+        old, sep, new = str(spec).partition("=")
+        (oc, _, ov), (nc, _, nv) = old.partition("/"), new.partition("/")
+        if not sep or not oc or not nc or bool(ov) != bool(nv):
+            raise ValueError(f"--rename must be OLD=NEW or OLD/VARIANT=NEW/VARIANT, got "
+                             f"{spec!r}")
+        out.append((oc, ov or None, nc, nv or None))
+    return out
+
+
+def rename_rows(run: Run, renames) -> Run:
+    """Run A with its rows' case (and variant) names mapped; the definitions and the manifest's
+    case hashes are looked up under the stored names."""
+    if not renames:
+        return run
+    rows, renamed = {}, dict(run.renamed)
+    for row in run.rows.values():
+        row = dict(row)
+        for oc, ov, nc, nv in renames:
+            if row["case"] == oc and (ov is None or row["variant"] == ov):
+                renamed[(nc, nv or row["variant"])] = (oc, row["variant"])
+                row["case"], row["variant"] = nc, nv or row["variant"]
+                break
+        rows[row_key(row)] = row
+    return Run(run.dir, run.manifest, rows, run.definitions, renamed)
+
+
+def stored_name(run: Run, row: dict) -> tuple:
+    """(case, variant) as run A stored them, before any --rename."""
+    return run.renamed.get((row["case"], row["variant"]), (row["case"], row["variant"]))
 
 
 def open_run(name: str, path) -> Run:
@@ -134,7 +188,8 @@ def open_run(name: str, path) -> Run:
     if missing:
         raise ValueError(f"{name} must be a stored run with columns {KEY}, "
                          f"{run_dir}/results.csv lacks {missing}")
-    return Run(run_dir, manifest, {row_key(r): r for r in table.to_dict("records")})
+    return Run(run_dir, manifest, {row_key(r): r for r in table.to_dict("records")},
+               Definitions.of_run(run_dir))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -153,19 +208,27 @@ class Result:
 
 
 def compare_runs(a: Run, b: Run, error_threshold=DEFAULT_ERROR_THRESHOLD,
-                 time_threshold=DEFAULT_TIME_THRESHOLD, judge_time=True) -> Result:
+                 time_threshold=DEFAULT_TIME_THRESHOLD, judge_time=True,
+                 allow_source_change=False) -> Result:
     """Match rows on KEY, refuse what cannot be compared, judge the rest (module docstring)."""
     compared, refused = [], []
     for key, ra in a.rows.items():
         if key not in b.rows:
             continue
         rb = b.rows[key]
-        why = refusal(ra, rb, a.manifest, b.manifest)
+        case_a, variant_a = stored_name(a, ra)
+        why = refusal({**ra, "case": case_a}, rb, a.manifest, b.manifest)
+        note = ""
+        if why and allow_source_change and why.startswith("case source"):
+            why, note = None, f"{why}: compared (--allow-source-change)"
         if why:
             refused.append({**dict(zip(KEY, key)), "reason": why})
-        else:
-            compared.append({**dict(zip(KEY, key)),
-                             **judge(ra, rb, error_threshold, time_threshold, judge_time)})
+            continue
+        d = a.definitions.get(case_a, variant_a, ra.get("params", "{}"))
+        verdict = judge(ra, rb, error_threshold, time_threshold, judge_time, d)
+        if note:
+            verdict["reasons"] = "; ".join(r for r in (verdict["reasons"], note) if r)
+        compared.append({**dict(zip(KEY, key)), **verdict})
     columns = KEY + ["norm", "err_a", "err_b", "err_ratio", "us_a", "us_b", "time_ratio",
                      "status_a", "status_b", "verdict", "reasons"]
     return Result(pd.DataFrame(compared, columns=columns),
@@ -175,14 +238,15 @@ def compare_runs(a: Run, b: Run, error_threshold=DEFAULT_ERROR_THRESHOLD,
 
 def refusal(ra: dict, rb: dict, manifest_a: dict, manifest_b: dict) -> str | None:
     """Why two matched rows must not be compared, or None."""
-    case = ra["case"]
+    case, case_b = ra["case"], rb["case"]
     ha = manifest_a.get("case_hashes", {}).get(case)
-    hb = manifest_b.get("case_hashes", {}).get(case)
+    hb = manifest_b.get("case_hashes", {}).get(case_b)
     if ha is None or hb is None:
         return f"case source hash of {case} missing from run {'A' if ha is None else 'B'}'s " \
                f"manifest"
     if ha != hb:
-        return f"case source changed ({case} hash {ha} in A, {hb} in B)"
+        named = case if case == case_b else f"{case} in A, {case_b} in B"
+        return f"case source changed ({named}: hash {ha} in A, {hb} in B)"
     pa, pb = _params(ra), _params(rb)
     if pa != pb:
         return f"case parameters differ ({pa or '{}'} in A, {pb or '{}'} in B)"
@@ -195,10 +259,12 @@ def _params(row: dict) -> dict:
 
 
 def judge(ra: dict, rb: dict, error_threshold: float, time_threshold: float,
-          judge_time: bool) -> dict:
+          judge_time: bool, definition: dict | None = None) -> dict:
     """Ratios and verdict of one matched pair: "regression", "improved", "ok" or
-    "not ok in A" (a row not ok in A and still not ok in B)."""
-    norm = _error_column(ra)
+    "not ok in A" (a row not ok in A and still not ok in B). `definition`: the case as run A
+    ran it (its tolerance column and error floor)."""
+    definition = definition or {}
+    norm = definition.get("tolerance_column", "err_max")
     err_a, err_b = _number(ra, norm), _number(rb, norm)
     us_a, us_b = _number(ra, "us_per_step"), _number(rb, "us_per_step")
     out = {"norm": norm, "err_a": err_a, "err_b": err_b, "err_ratio": _ratio(err_b, err_a),
@@ -211,7 +277,7 @@ def judge(ra: dict, rb: dict, error_threshold: float, time_threshold: float,
     if rb["status"] != "ok":
         return {**out, "verdict": "regression",
                 "reasons": f"status ok -> {rb['status']} ({rb.get('reason', '')})"}
-    floor = _roundoff_floor(ra, rb)
+    floor = _roundoff_floor(ra, rb, definition.get("error_floor", 0.0))
     worse = (_error_regression(err_a, err_b, error_threshold, floor)
              + _tolerance_regression(ra, rb, norm)
              + (_time_regression(us_a, us_b, time_threshold) if judge_time else []))
@@ -258,28 +324,11 @@ def _improved(err_a, err_b, threshold, floor, ra, rb) -> str:
     return ""
 
 
-def _roundoff_floor(ra, rb) -> float:
+def _roundoff_floor(ra, rb, case_floor: float) -> float:
     """max(1e-3 x the smaller tolerance, the case's error floor); 0 when neither is known."""
     tols = [t for t in (_number(ra, "tolerance"), _number(rb, "tolerance")) if math.isfinite(t)]
     floor = ROUNDOFF_FRACTION * min(tols) if tols else 0.0
-    case, p = _case_and_params(ra)
-    return max(floor, case.error_floor(p)) if case is not None else floor
-
-
-def _error_column(row) -> str:
-    case, p = _case_and_params(row)
-    return case.tolerance_column(p) if case is not None else "err_max"
-
-
-def _case_and_params(row):
-    """The case (from this tree) and its parameters for a row; (None, None) when the case or
-    its variant no longer exists."""
-    from refsim.registry import get_case
-    try:
-        case = get_case(row["case"])
-        return case, case.variant_params(row["variant"], _params(row))
-    except ValueError:
-        return None, None
+    return max(floor, case_floor if math.isfinite(case_floor) else 0.0)
 
 
 def _number(row: dict, column: str) -> float:

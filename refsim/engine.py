@@ -113,6 +113,9 @@ class Engine:
     capabilities: frozenset = frozenset()
     dims: tuple = (3,)
     integrators: tuple = ()
+    reference = False  # the in-house reference simulator: listed (and reported) first
+    equivalents: dict = {}  # own integrator name -> the refsim stepper it equals on an
+    #                         undamped spring (the stability search's theory), where it differs
 
     def available(self) -> bool:
         if self.package is None:

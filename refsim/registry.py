@@ -1,4 +1,5 @@
-"""Finds engines and cases: the entry-point groups `refsim.engines` and `refsim.cases`.
+"""Finds engines, cases and benches: the entry-point groups `refsim.engines`, `refsim.cases`
+and `refsim.benches`.
 
 The only core module that knows where engines and cases live. An installed distribution
 declares its own in its metadata, as pytest plugins declare `pytest11`:
@@ -7,6 +8,8 @@ declares its own in its metadata, as pytest plugins declare `pytest11`:
     my_engine = "my_pkg.engine:MyEngine"          # an Engine subclass (built with no arguments)
     [project.entry-points."refsim.cases"]
     my_case = "my_pkg.cases:CASE"                 # a Case instance
+    [project.entry-points."refsim.benches"]
+    my_bench = "my_pkg.bench:main"                # main(quick: bool) -> exit code
 
 refsim's own engines and cases are declared the same way in its pyproject. `register` adds
 one at run time (a test's engine class); it never replaces a name already known. Targets are
@@ -19,7 +22,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from importlib.metadata import entry_points
 
-GROUPS = {"engine": "refsim.engines", "case": "refsim.cases"}
+GROUPS = {"engine": "refsim.engines", "case": "refsim.cases", "bench": "refsim.benches"}
 BUILTIN = "refsim"  # the distribution whose entries come first, in their declared order
 
 
@@ -37,7 +40,7 @@ class Entry:
         return obj
 
 
-_RUNTIME: dict[str, dict[str, Entry]] = {"engine": {}, "case": {}}
+_RUNTIME: dict[str, dict[str, Entry]] = {kind: {} for kind in GROUPS}
 
 
 @lru_cache(maxsize=None)
@@ -102,7 +105,11 @@ def refresh() -> None:
 
 # -- the two kinds, by name ---------------------------------------------------------------------
 def engine_names() -> list[str]:
-    return names("engine")
+    """Engine names, the in-house reference engine(s) (`Engine.reference`) first, the rest in
+    their distributions' order (setuptools writes entry points sorted by name)."""
+    known = names("engine")
+    return sorted(known, key=lambda n: not getattr(entry("engine", n).load(), "reference",
+                                                   False))
 
 
 def case_names() -> list[str]:

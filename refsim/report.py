@@ -1,11 +1,12 @@
 """`refsim report RUN_DIR`: report.md and a self-contained report.html from a stored run.
 
-Reads the store only (results.csv, manifest.json, series.jsonl); the cases are consulted for
-their description, units, energy scale and default target error, never re-run. Per case and
-variant: the recommendation (the cheapest configuration reaching the target error), a compact
-table, measured against nominal orders, and four figures: work-precision (error against run
-time, Pareto front marked), convergence (error against dt with fitted orders), energy against
-time at the reference dt and, for the dam break, the surge front over the experiment.
+Reads the store only (results.csv, manifest.json, series.jsonl and the cases as run,
+cases.json: description, units, energy scale, target error, figures); nothing is re-run. Per
+case and variant: the recommendation (the cheapest configuration reaching the target error), a
+compact table, measured against nominal orders where the case declares an order meaningful,
+and the figures: work-precision (error against run time, Pareto front marked), convergence
+(error against dt with fitted orders), energy against time at the reference dt, and the
+figures the case declares (e.g. the dam break's surge front over the experiment).
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from refsim import report_plots as plots
+from refsim.definitions import Definitions
 
 ORDER_SLACK = 0.3  # |measured - nominal| within this: the measured order "matches"
 
@@ -59,9 +61,14 @@ def write_report(run_dir, target_error=None, out=None):
     table = load_results(run_dir)
     manifest = json.loads((run_dir / "manifest.json").read_text())
     series = load_series(run_dir)
+    definitions = Definitions.of_run(run_dir)
     blocks = _header(manifest, table)
     for (case, variant), rows in table.groupby(["case", "variant"], sort=False):
-        blocks += _case_section(case, variant, rows, series, target_error, out)
+        blocks += _case_section(definitions.of_row(rows.iloc[0]), rows, series, target_error,
+                                out)
+    if definitions.legacy:
+        blocks.insert(4, ("p", "This run was stored before runs kept their case definitions: "
+                               "descriptions, units and figures come from today's code."))
     md_path, html_path = out / "report.md", out / "report.html"
     out.mkdir(parents=True, exist_ok=True)
     md_path.write_text(render_markdown(blocks, out))
@@ -100,16 +107,14 @@ def _header(manifest, table):
     return blocks
 
 
-def _case_section(case_name, variant, rows, series, target_error, out):
-    from refsim.registry import get_case
+def _case_section(d, rows, series, target_error, out):
+    """One case x variant from its stored definition `d` (Case.definition)."""
     from refsim.store import row_key
-    case = get_case(case_name)
-    p = case.variant_params(variant, json.loads(rows["params"].iloc[0] or "{}"))
-    col, (observable, units) = case.tolerance_column(p), case.observed(p)
-    target = target_error if target_error is not None else case.target_error(p)
-    slug = f"{case_name}-{variant}".replace("/", "_").replace(" ", "_").replace("=", "")
-    title = f"{case_name} / {variant}"
-    blocks = [("h2", title), ("p", f"{case.description}. Compared: `{col}` of "
+    col, observable, units = d["tolerance_column"], d["observable"], d["units"]
+    target = target_error if target_error is not None else d["target_error"]
+    title = f"{d['case']} / {d['variant']}"
+    slug = title.replace(" / ", "-").replace("/", "_").replace(" ", "_").replace("=", "")
+    blocks = [("h2", title), ("p", f"{d['description']}. Compared: `{col}` of "
                                    f"{observable} ({units}).")]
     blocks.append(("p", recommendation(rows, col, units, target)))
     ran = rows[np.isfinite(rows["dt"])]
@@ -118,17 +123,17 @@ def _case_section(case_name, variant, rows, series, target_error, out):
                              f"{title}: work-precision"),
         plots.convergence(ran, col, units, out / "plots" / f"{slug}-conv.png",
                           f"{title}: convergence"),
-        plots.energy_history(ran, series, row_key, case.energy_scale(p),
+        plots.energy_history(ran, series, row_key, d["energy_scale"],
                              out / "plots" / f"{slug}-energy.png",
                              f"{title}: energy at the reference dt"),
     ]
-    if case_name == "dam_break" and p.get("layout") == "release":
-        from cases.dam_break import martin_moyce
-        figures.append(plots.front_history(ran, series, row_key, martin_moyce(),
-                                           out / "plots" / f"{slug}-front.png",
-                                           f"{title}: surge front"))
+    for k, spec in enumerate(d.get("figures", [])):
+        draw = plots.FIGURES.get(spec.get("kind"))
+        if draw is not None:
+            figures.append(draw(ran, series, row_key, spec,
+                                out / "plots" / f"{slug}-fig{k}.png", f"{title}: {spec['title']}"))
     blocks += [("img", f, title) for f in figures if f is not None]
-    orders = order_table(ran)
+    orders = order_table(ran) if d.get("order_meaningful", True) else pd.DataFrame()
     if len(orders):
         blocks += [("h3", "Measured against nominal order"), ("table", orders)]
     blocks += [("h3", "Results"), ("table", compact_table(rows, col))]

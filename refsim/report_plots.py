@@ -123,23 +123,30 @@ def energy_history(rows, series: dict, key_of, scale: float, path: Path, title: 
     return _finish(fig, ax, path, title)
 
 
-def front_history(rows, series: dict, key_of, data, path: Path, title: str):
-    """Dam break: the surge front Z(T) of every engine, shifted by its fitted time shift,
-    over Martin & Moyce's measured points."""
+def trace_over_data(rows, series: dict, key_of, spec: dict, path: Path, title: str):
+    """A case's declared figure (Case.figures, kind "trace_over_data"): each row's stored
+    series spec["y"] against spec["x"] (shifted by the row's spec["x_shift_column"] when
+    given), over the measured points spec["data"]."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=SIZE)
     drawn = 0
-    for row, trace in _traced(rows, series, key_of, "front"):
-        shift = row.get("time_shift", 0.0)
+    column = spec.get("x_shift_column")
+    for row, trace in _traced(rows, series, key_of, spec["y"]):
+        shift = float(row.get(column, 0.0)) if column else 0.0
         shift = 0.0 if not np.isfinite(shift) else shift
-        ax.plot(np.asarray(trace["T"]) + shift, trace["front"], lw=1.2,
-                label=f"{line_label(row)} (shift {shift:+.2f}, RMS {row['err_rms']:.3f})")
+        label = line_label(row)
+        if column:
+            label += f" (shift {shift:+.2f}, RMS {row['err_rms']:.3f})"
+        ax.plot(np.asarray(trace[spec["x"]]) + shift, trace[spec["y"]], lw=1.2, label=label)
         drawn += 1
     if not drawn:
         plt.close(fig)
         return None
-    T, Z = data
-    ax.plot(T, Z, "ko", ms=4, mfc="none", label="Martin & Moyce (1952), Table 2")
-    ax.set_xlabel("T = t sqrt(2 g / a)  (+ fitted shift)")
-    ax.set_ylabel("Z = x / a")
+    data = spec["data"]
+    ax.plot(data["x"], data["y"], "ko", ms=4, mfc="none", label=data["label"])
+    ax.set_xlabel(spec["x_label"])
+    ax.set_ylabel(spec["y_label"])
     return _finish(fig, ax, path, title)
+
+
+FIGURES = {"trace_over_data": trace_over_data}  # the kinds a case may declare

@@ -16,6 +16,7 @@ import pandas as pd
 
 from refsim.registry import engine_names, get_engine
 from refsim.registry import case_names, get_case
+from refsim.engine import IntegratorInfo, jsonable
 from refsim.integrators import INTEGRATORS, get_integrator
 from refsim.metrics import convergence_order, energy_drift, error_norms
 
@@ -181,8 +182,8 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
     stride = max(1, int(round(case.sample_dt(p) / job.dt)))
     row.update(steps=steps, t_end=steps * job.dt)
     sim, setup_s = clock.call(_build, engine, scene, job)
-    row.update(setup_s=setup_s, compile_s=sim.compile_s, settings=json.dumps(sim.settings()),
-               nominal_order=_nominal_order(sim, job))
+    row.update(setup_s=setup_s, compile_s=sim.compile_s,
+               settings=json.dumps(jsonable(sim.settings())), nominal_order=_nominal_order(sim, job))
     obs, diverged, stepping_s = _accuracy_pass(case, p, sim, steps, stride, clock)
     clock.call(sim.close)
     stacked = {k: np.array([o[k] for o in obs]) for k in obs[0]}
@@ -223,9 +224,9 @@ def _build(engine, scene, job):
 
 
 def _nominal_order(sim, job):
-    described = json.loads(json.dumps(sim.settings())).get("integrator", {})
-    if isinstance(described, dict) and "order" in described:
-        return float(described["order"])
+    described = IntegratorInfo.of(sim.settings())
+    if described is not None:
+        return float(described.order)
     try:
         return float(get_integrator(job.integrator).order)
     except ValueError:
@@ -377,13 +378,13 @@ def _results(todo, run_id, repeats, budget_s, workers):
         yield from map(_work, tasks)
         return
     import multiprocessing as mp
-    tasks.sort(key=lambda t: (t[0].case != "dam_break", -_job_size(t[0])))
+    tasks.sort(key=lambda t: -_job_size(t[0]))
     with mp.get_context("spawn").Pool(workers, initializer=_worker_init) as pool:
         yield from pool.imap_unordered(_work, tasks, chunksize=1)
 
 
 def _job_size(job) -> float:
-    """A job's body-steps (its case's estimate), to start the largest fluid runs first; 0 for
+    """A job's work (its case's estimate, Case.work), to start the largest runs first; 0 for
     an engine that does not support the case (no dt: nothing runs)."""
     if not job.dt == job.dt:
         return 0.0
@@ -407,6 +408,8 @@ def with_orders(table: pd.DataFrame) -> pd.DataFrame:
     table["order_points"] = 0
     for key, group in table[table["status"] == "ok"].groupby(GROUP + ["params"], dropna=False):
         case = get_case(key[0])
+        if not case.order_meaningful:
+            continue
         p = case.variant_params(key[1], json.loads(key[-1]))
         floor, ceiling = case.error_floor(p), case.error_ceiling(p)
         order, used = convergence_order(group["dt"], group["err_max"], floor, ceiling)

@@ -22,6 +22,7 @@ import pandas as pd
 DEFAULT_ROOT = Path("reports") / "runs"
 JOURNAL = "rows.jsonl"
 SERIES = "series.jsonl"
+DEFINITIONS = "cases.json"  # each case x variant x parameters as run (Case.definition)
 KEY = ["case", "variant", "engine", "engine_variant", "integrator", "dt"]
 
 
@@ -95,6 +96,15 @@ class RunStore:
         with open(self.dir / SERIES, "a") as handle:
             handle.write(line + "\n")
 
+    def add_definitions(self, definitions: list[dict]) -> None:
+        """Keep the cases as run (Case.definition + the row's `params` text under "key_params"):
+        report and compare read these, never today's code. Earlier ones are kept."""
+        known = {definition_key(d): d for d in load_definitions_list(self.dir)}
+        for d in definitions:
+            known.setdefault(definition_key(d), d)
+        atomic_write(self.dir / DEFINITIONS, json.dumps(list(known.values()), indent=1,
+                                                         default=_plain))
+
     def write_table(self, table: pd.DataFrame) -> None:
         self._written = time.monotonic()
         atomic_write(self.dir / "results.csv", table.to_csv(index=False, na_rep="nan"))
@@ -121,6 +131,21 @@ def read_journal(path: Path) -> list[dict]:
         except json.JSONDecodeError:
             continue
     return rows
+
+
+def definition_key(d: dict) -> tuple:
+    return (d["case"], d["variant"], d["key_params"])
+
+
+def load_definitions_list(run_dir: Path) -> list[dict]:
+    path = Path(run_dir) / DEFINITIONS
+    return json.loads(path.read_text()) if path.exists() else []
+
+
+def load_definitions(run_dir: Path) -> dict:
+    """{(case, variant, params text): definition} of a stored run; {} for a run stored before
+    definitions were kept (refsim.definitions gives those today's definitions, saying so)."""
+    return {definition_key(d): d for d in load_definitions_list(run_dir)}
 
 
 def load_series(run_dir: Path) -> dict:

@@ -148,7 +148,7 @@ def _integrators(names, engines):
         if name.partition(":")[0] not in offered:
             raise ValueError(f"--integrator must be one offered by {engines}: {offered}; "
                              f"got {name!r}")
-        eq = refsim_equivalent("", name)
+        eq = refsim_equivalent(None, name)
         if eq is not None and get_integrator(eq).adaptive:
             raise ValueError(f"--integrator {name!r} is adaptive (no fixed dt, so no limit in "
                              "y = omega dt): choose a fixed-step integrator")
@@ -178,10 +178,11 @@ def _dt(value):
 
 def manifest(opts) -> dict:
     from refsim.registry import get_engine
-    from refsim.registry import get_case
+    from refsim.stress_search import probe_case
     versions = {e: get_engine(e).version() for e in opts["engines"]}
     threads = os.environ.get("OMP_NUM_THREADS", "1")
-    env = store.environment(versions, {"stiff_spring": get_case("stiff_spring").source_hash()},
+    probe = probe_case()
+    env = store.environment(versions, {probe.name: probe.source_hash()},
                             int(threads) if threads.isdigit() else 1)
     return {"run_id": store.new_run_id(), "kind": "stress", "command": command(opts),
             "argv": sys.argv, "criterion": opts["criterion"].text(),
@@ -216,7 +217,7 @@ def limit_jobs(opts, spring) -> tuple[list, list]:
         for integ in opts["integrators"] or engine.integrators:
             if integ.partition(":")[0] not in engine.integrators:
                 continue
-            eq = refsim_equivalent(name, integ)
+            eq = refsim_equivalent(engine, integ)
             why = "adaptive" if eq and get_integrator(eq).adaptive else \
                 engine.supports(spring.scene, integ)
             if why:
@@ -235,7 +236,7 @@ def limits_table(opts, spring) -> pd.DataFrame:
 
 def limit_row(engine, integrator, spring, opts) -> dict:
     crit, tol = opts["criterion"], opts["tol"]
-    eq = refsim_equivalent(engine.name, integrator)
+    eq = refsim_equivalent(engine, integrator)
     stepper = get_integrator(eq) if eq else None
     th = theory(stepper) if stepper else math.nan
     ft, res = finite_time(stepper, th, crit) if stepper else (math.nan, math.nan)

@@ -1,7 +1,7 @@
 """The stability-limit search behind `refsim stress`: criterion, theory, and two searches.
 
-Scene: the undamped stiff spring (cases/stiff_spring.py: m = 1 kg, k = 1e4 N/m, rest length
-1 m, released from rest) with the amplitude A lowered from 0.1 m to SPRING_PARAMS' 1e-7 m, so
+Scene: the case registered with the tag "stability_probe" (the undamped stiff spring: m = 1 kg,
+k = 1e4 N/m, rest length 1 m, released from rest; it must offer `omega(p)`) with the amplitude A lowered from 0.1 m to SPRING_PARAMS' 1e-7 m, so
 that the spring stays linear wherever the search goes. It is linear only while the mass stays
 on its side of the anchor: near y = 2 a stable symplectic Euler orbit from rest reaches
 E0 / (1 - y/2), |u| up to A / sqrt(2 - y) (10 A at y = 1.99: with A = 0.1 m the mass passes
@@ -44,12 +44,7 @@ Y_MIN, Y_MAX = 1e-3, 1e3
 GRID_PER_DECADE = 8
 ROUND_POINTS = 32  # y values per batched bisection round (the bracket shrinks 33-fold)
 SPRING_PARAMS = {"amplitude": 1e-7}
-# engine integrators that are not refsim names -> the refsim stepper they equal on this spring
-EQUIVALENT = {
-    ("mujoco", "implicit"): "symplectic_euler",  # damping implicit, nothing damped here
-    ("mujoco", "implicitfast"): "symplectic_euler",
-    ("mujoco", "discrete"): "implicit_euler",  # spring stiffness and damping implicit
-}
+PROBE_TAG = "stability_probe"  # the case whose oscillator the search runs
 
 
 @dataclass(frozen=True)
@@ -72,12 +67,20 @@ class Criterion:
                 f"failure, and the energy is < {self.factor:g} E0 (undamped spring, from rest)")
 
 
+def probe_case():
+    """The registered case tagged PROBE_TAG (an undamped linear oscillator with `omega(p)`)."""
+    from refsim.registry import case_names, get_case
+    for name in case_names():
+        if PROBE_TAG in get_case(name).tags:
+            return get_case(name)
+    raise ValueError(f"a case tagged {PROBE_TAG!r} must be installed for the stability search")
+
+
 class Spring:
-    """The stiff-spring case at fixed parameters: scene, omega, E0 and a batch energy."""
+    """The probe case (an undamped spring) at fixed parameters: scene, omega, E0, batch energy."""
 
     def __init__(self, **overrides):
-        from refsim.registry import get_case
-        self.case = get_case("stiff_spring")
+        self.case = probe_case()
         self.p = self.case.variant_params("default", {**SPRING_PARAMS, **overrides})
         self.scene = self.case.scene(self.p)
         self.omega, self.e0 = float(self.case.omega(self.p)), self.case.energy_scale(self.p)
@@ -92,8 +95,11 @@ class Spring:
 # --------------------------------------------------------------------------------------------
 # Theory
 # --------------------------------------------------------------------------------------------
-def refsim_equivalent(engine: str, integrator: str) -> str | None:
-    name = EQUIVALENT.get((engine, integrator), integrator)
+def refsim_equivalent(engine, integrator: str) -> str | None:
+    """The refsim stepper that `engine`'s integrator equals on the undamped spring (the engine
+    declares its own in `Engine.equivalents`, e.g. MuJoCo's implicitfast = symplectic Euler
+    when nothing is damped), None when there is none. `engine` None: the name itself."""
+    name = getattr(engine, "equivalents", {}).get(integrator, integrator)
     try:
         get_integrator(name)
     except ValueError:
@@ -231,9 +237,7 @@ def find_limit(engine, integrator: str, spring: Spring, criterion: Criterion,
                tol: float) -> Found:
     """The measured limit of one engine's integrator, batched where the engine allows it."""
     t0 = time.perf_counter()
-    evaluate, fallback = None, ""
-    if engine.name == "refsim":
-        evaluate, fallback = batch_evaluator(engine, integrator, spring, criterion)
+    evaluate, fallback = batch_evaluator(engine, integrator, spring, criterion)
     if evaluate is not None:
         n_grid = int(math.log10(Y_MAX / Y_MIN) * GRID_PER_DECADE) + 1
         limit, count = search_limit(evaluate, tol, n_grid, ROUND_POINTS)
@@ -313,8 +317,14 @@ def batch_stepper(sim, spring):
 
 
 def batch_evaluator(engine, integrator, spring, criterion):
-    """(evaluate(ys) running every y as one vectorised oscillator batch, "") or (None, why)."""
+    """(evaluate(ys) running every y as one vectorised oscillator batch, "") or (None, why);
+    (None, "") for a Sim that does not expose the in-house stepper contract (`system` and
+    `stepper`: the engine steps its own way, one Sim per y)."""
     sim = engine.build(spring.scene, 1.0 / spring.omega, integrator, "")
+    if getattr(sim, "system", None) is None or getattr(sim, "stepper", None) is None \
+            or not hasattr(sim.stepper, "start"):
+        sim.close()
+        return None, ""
     stepper, why = batch_stepper(sim, spring)
     if stepper is None:
         return None, why + ": one Sim per y"

@@ -65,20 +65,19 @@ def assert_within_tolerance(case, engine, integrator, variant=None, engine_varia
     return row
 
 
-def spring_stable(engine, integrator, y, energy_factor=1e4, periods=100, engine_variant="",
-                  **params) -> bool:
-    """Stability criterion on the undamped stiff spring at y = omega dt: finite, and the
-    energy after every step below energy_factor * E0 over `periods` periods. (From rest,
-    symplectic Euler's energy legitimately peaks at E0 / (1 - y/2): a factor of 10 would put
-    its limit at y = 1.8, not 2.)"""
+def oscillator_stable(case, engine, integrator, y, energy_factor=1e4, periods=100,
+                      engine_variant="", variant=None, **params) -> bool:
+    """Stability criterion on an undamped oscillator case (one with `omega(p)`, e.g. the stiff
+    spring) at y = omega dt: finite, and the energy after every step below energy_factor * E0
+    over `periods` periods. (From rest, symplectic Euler's energy legitimately peaks at
+    E0 / (1 - y/2): a factor of 10 would put its limit at y = 1.8, not 2.)"""
     import math
 
     import numpy as np
 
-    from refsim.registry import get_engine
-    from refsim.registry import get_case
-    case = get_case("stiff_spring")
-    p = case.variant_params("default", params)
+    from refsim.registry import get_case, get_engine
+    case = get_case(case)
+    p = case.variant_params(variant or next(iter(case.variants)), params)
     sim = get_engine(engine).build(case.scene(p), y / case.omega(p), integrator, engine_variant)
     e0 = case.energy_scale(p)
     try:

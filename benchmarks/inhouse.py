@@ -1,14 +1,12 @@
-"""`refsim bench`: speed figures of the in-house engine, printed, on one core.
+"""`refsim bench inhouse` (the default bench): speed figures of the in-house engine, printed,
+on one core.
 
 1. microseconds per RK4 step on one pendulum (the engine's Sim.step);
 2. pendulum-steps per second of RK4 on a batch of 10,000 pendulums (goal >= 1e7);
 3. wall time to reach err_max <= 1e-8 on the 10 s pendulum (theta0 = 1 rad) with the fastest
    in-house method, against scipy's solve_ivp (DOP853) measured beside it, both producing the
    trajectory at the same 1001 sample times (goal: at most 1.0x solve_ivp's time);
-4. the contact step on a box of N = 1e2, 1e3, 1e4 spheres, and the fitted cost exponent;
-5. (`--sph`) dam-break WCSPH throughput, numpy against taichi side by side, at about 5k, 20k
-   and 80k fluid particles: fluid particle-steps per second over steps 20..(20 + n) of the
-   collapse (after the first neighbour build and taichi's compilation).
+4. the contact step on a box of N = 1e2, 1e3, 1e4 spheres, and the fitted cost exponent.
 Times are the minimum over repeats (the least disturbed run), after a warm-up.
 """
 from __future__ import annotations
@@ -21,6 +19,7 @@ TARGET = 1e-8
 DURATION, SAMPLE = 10.0, 0.01
 W0 = np.sqrt(9.81)
 THETA0 = 1.0
+BOX_CASE = "colliding_spheres"  # the case with the box_100 variant (N spheres in a box)
 
 
 def best_time(fn, repeats=5):
@@ -34,8 +33,7 @@ def best_time(fn, repeats=5):
 
 
 def single_pendulum_rk4(steps=20000, repeats=5):
-    from refsim.registry import get_engine
-    from refsim.registry import get_case
+    from refsim.registry import get_case, get_engine
     case = get_case("pendulum")
     scene = case.scene(case.variant_params("default"))
     engine = get_engine("refsim")
@@ -119,9 +117,8 @@ def time_to_target(repeats=5):
 def sphere_box_costs(sizes=(100, 1000, 10_000), steps=50, repeats=3):
     """us per step of the in-house discrete contact step on the box of N spheres, and the
     least-squares exponent of cost against N."""
-    from refsim.registry import get_engine
-    from refsim.registry import get_case
-    case, engine = get_case("colliding_spheres"), get_engine("refsim")
+    from refsim.registry import get_case, get_engine
+    case, engine = get_case(BOX_CASE), get_engine("refsim")
     costs = []
     for n in sizes:
         scene = case.scene(case.variant_params("box_100", {"n_spheres": n}))
@@ -138,50 +135,8 @@ def sphere_box_costs(sizes=(100, 1000, 10_000), steps=50, repeats=3):
     return list(zip(sizes, costs)), exponent
 
 
-def sph_throughput(resolutions=(50, 100, 200), steps=(40, 30, 16)):
-    """[(fluid particles, {engine label: fluid particle-steps/s})] for the dam break at a/dx
-    = each resolution (2 res^2 fluid particles), refsim and every taichi fluid variant."""
-    from refsim.registry import get_engine
-    from refsim.registry import get_case
-    case = get_case("dam_break")
-    out = []
-    for res, n in zip(resolutions, steps):
-        p = case.variant_params("res20", {"resolution": res})
-        scene, dt = case.scene(p), case.reference_dt(p)
-        rates = {}
-        for name in ("refsim", "taichi"):
-            engine = get_engine(name)
-            if not engine.available():
-                continue
-            for variant in engine.variants(scene):
-                sim = engine.build(scene, dt, "velocity_verlet", variant)
-                sim.step(20)  # first neighbour build, JIT, the column starting to move
-                t0 = time.perf_counter()
-                sim.step(n)
-                elapsed = time.perf_counter() - t0
-                nfluid = sim.settings()["particles"]
-                threads = sim.settings().get("threads_used", sim.settings().get("threads", 1))
-                rates[f"{name}{':' + variant if variant else ''} ({threads} thr)"] = \
-                    nfluid * n / elapsed
-                sim.close()
-        out.append((2 * res * res, rates))
-    return out
-
-
-def print_sph(rows) -> None:
-    print("5. dam-break WCSPH throughput (fluid particle-steps/s; walls extra):")
-    for nfluid, rates in rows:
-        numpy_rate = rates.get("refsim (1 thr)")
-        for label, rate in rates.items():
-            ratio = f"  numpy / this {numpy_rate / rate:5.2f}" if numpy_rate else ""
-            print(f"   {nfluid:6d} fluid  {label:36s} {rate:10.3e}{ratio}")
-
-
-def main(quick: bool = False, sph: bool = False) -> int:
+def main(quick: bool = False) -> int:
     import os
-    if sph:
-        print_sph(sph_throughput())
-        return 0
     repeats = 3 if quick else 5
     print(f"refsim bench (one core: OMP/OPENBLAS threads = {os.environ.get('OMP_NUM_THREADS')})")
     us = single_pendulum_rk4(5000 if quick else 20000, repeats)
