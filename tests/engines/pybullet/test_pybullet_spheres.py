@@ -3,7 +3,8 @@ on the overlapped pose for oblique impacts, momentum, the cradle as pybullet sol
 the box's energy, settings and refusals.
 
 pybullet is imported here on purpose: CI must have every engine, so a missing package fails at
-import instead of skipping. Facts measured on pybullet 3.2.7 (adapters/pybullet_engine.py).
+import instead of skipping. Facts measured on pybullet 3.2.7
+(adapters/pybullet_engine/contacts.py).
 """
 import json
 import math
