@@ -1,0 +1,99 @@
+"""Point masses without contacts: free particles (3 slides), masses on a spring to a fixed
+anchor (1 slide joint with stiffness) and masses on a rod (1 hinge through the anchor).
+
+Each check raises ValueError with the one-sentence reason `supports` reports."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .body_plan import BodyPlan
+
+POINT_INERTIA = 1e-12  # kg m^2: ENGINE_NOTES (1e-12 clean, 1e-9 a 1e-8 error under RK4)
+_GEOMETRY_RTOL = 1e-9  # initial state must satisfy a rod / stay on a spring's line to this
+
+
+def point_mass_plans(scene) -> list[BodyPlan]:
+    """One plan per body: a hinge for a rod body, a slide for a spring body, else 3 slides."""
+    springs = _springs_by_body(scene)
+    joints = _joints_by_body(scene, springs)
+    plans = []
+    for i, body in enumerate(scene.bodies):
+        if i in joints:
+            plans.append(_hinge_plan(scene, i, body, joints[i]))
+        elif i in springs:
+            plans.append(_spring_plan(scene, i, body, springs[i]))
+        else:
+            plans.append(BodyPlan("particle", i, body.mass, body.position,
+                                  damping=scene.linear_drag, qvel0=body.velocity))
+    return plans
+
+
+def _springs_by_body(scene) -> dict:
+    springs = {}
+    for s in scene.springs:
+        if s.other is not None:
+            raise ValueError("mujoco adapter: springs between two bodies are not modelled "
+                             "(a joint spring needs a fixed anchor)")
+        if s.body in springs:
+            raise ValueError("mujoco adapter: at most one spring per body (a slide-joint "
+                             "spring moves along one line)")
+        springs[s.body] = s
+    return springs
+
+
+def _joints_by_body(scene, springs) -> dict:
+    joints = {}
+    for j in scene.joints:
+        if j.body in joints or j.body in springs:
+            raise ValueError("mujoco adapter: a body may carry one rod or one spring, not both "
+                             "or several")
+        joints[j.body] = j
+    return joints
+
+
+def _hinge_plan(scene, i, body, joint) -> BodyPlan:
+    """Hinge through the anchor; qpos = 0 is the initial pose, qvel the initial rate."""
+    r0 = np.subtract(body.position, joint.anchor)
+    axis, length = np.asarray(joint.axis), joint.length
+    tol = _GEOMETRY_RTOL * length
+    if abs(np.linalg.norm(r0) - length) > tol or abs(r0 @ axis) > tol:
+        raise ValueError("mujoco adapter: a rod body must start at distance L from the anchor, "
+                         "perpendicular to the hinge axis")
+    omega = float(np.cross(r0, body.velocity) @ axis) / length ** 2
+    speed = max(np.linalg.norm(body.velocity), 1.0)
+    if np.linalg.norm(np.cross(omega * axis, r0) - body.velocity) > _GEOMETRY_RTOL * speed:
+        raise ValueError("mujoco adapter: a rod body's initial velocity must be a rotation "
+                         "about the hinge axis")
+    return BodyPlan("hinge", i, body.mass, body.position, axis=tuple(axis),
+                    joint_pos=tuple(-r0), damping=scene.linear_drag * length ** 2,
+                    qvel0=(omega,))
+
+
+def _spring_plan(scene, i, body, spring) -> BodyPlan:
+    """Slide along u = (x0 - anchor)/d0; spring force -k (q + d0 - L0) = -k (d - L0)."""
+    r0 = np.subtract(body.position, spring.anchor)
+    d0 = float(np.linalg.norm(r0))
+    if d0 == 0:
+        raise ValueError("mujoco adapter: a spring body may not start on its anchor")
+    u = r0 / d0
+    v0, g = np.asarray(body.velocity), np.asarray(scene.gravity)
+    if np.linalg.norm(v0 - (v0 @ u) * u) > _GEOMETRY_RTOL * max(np.linalg.norm(v0), 1.0) or \
+            np.linalg.norm(g - (g @ u) * u) > _GEOMETRY_RTOL * max(np.linalg.norm(g), 1.0):
+        raise ValueError("mujoco adapter: a spring body must move along the anchor-body line "
+                         "(velocity and gravity along it); a slide-joint spring is 1D")
+    if _closest_approach(body.mass, spring.stiffness, spring.rest_length, g @ u, d0,
+                         v0 @ u) <= 0:
+        raise ValueError("mujoco adapter: this spring would swing through its anchor, which a "
+                         "slide-joint spring does not model")
+    return BodyPlan("spring", i, body.mass, body.position, axis=tuple(u),
+                    stiffness=spring.stiffness, springref=spring.rest_length - d0,
+                    damping=spring.damping + scene.linear_drag, qvel0=(float(v0 @ u),))
+
+
+def _closest_approach(m, k, rest, g_u, d0, v0):
+    """Smallest anchor distance of the undamped 1D motion (damping only lowers the energy)."""
+    centre = rest + m * g_u / k
+    amplitude = math.sqrt((d0 - centre) ** 2 + m * v0 * v0 / k)
+    return centre - amplitude

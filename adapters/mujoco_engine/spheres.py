@@ -1,0 +1,173 @@
+"""Sphere scenes (features "contacts", "walls"): free spheres, walls, soft contacts.
+
+One free-jointed body per sphere with an explicit `<inertial>` (scene mass, diaginertia = the
+scene's 2/5 m r^2; `inertiafromgeom` off, checked after compiling) and a sphere geom; each wall
+is a plane geom through its point with z axis = its inward normal. MuJoCo has no restitution
+parameter (ENGINE_NOTES: the default solref gives e ~ 0.13 whatever is asked), so contacts are
+its soft contacts in the direct form solref = (-K, -B) with a flat impedance d (solimp dmin =
+dmax):
+- an isolated contact's relative normal acceleration is then exactly -K pos - B vel, whatever
+  the masses and d (engine_core_constraint.c stores K/d^2 and B/d, aref = -(B vel + K pos)/d,
+  and the solver returns a = d aref when R = (1-d)/d A); K = (pi / (N dt))^2 makes an
+  undamped contact last N = CONTACT_STEPS steps at every dt;
+- B is calibrated in code: a bisection on B so that the restitution MuJoCo itself produces
+  (two spheres head-on at the scene's dt with the scene's integrator), averaged over 32
+  contact onsets within a step, equals e; the largest deviation over onsets is reported as
+  the residual (cached per process; `restitution`);
+- d decides how simultaneous contacts couple (engine variants): "" d = 1e-4, one linear
+  spring-dashpot per contact (DEM); "coupled" d = 0.9999, MuJoCo's constraint regime;
+- friction mu > 0: condim 3, elliptic cone; the friction rows' damping comes from
+  `solreffriction`, which only explicit <pair> elements carry, so frictional scenes list every
+  sphere-sphere and sphere-wall pair (at most MAX_FRICTION_SPHERES spheres);
+- integrators: Euler, implicit and implicitfast take the same step here; RK4 re-detects and
+  re-solves contacts at each stage; discrete (backward Euler on the contact spring) is refused.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .body_plan import BodyPlan
+from .contact_params import (CONTACT_STEPS, IMPEDANCE, MAX_FRICTION_SPHERES,
+                             SOLVER_ITERATIONS, SOLVER_TOLERANCE, VARIANT_NOTES,
+                             friction_damping)
+from .mjcf import xml_floats
+from .restitution import RestitutionMap, restitution_map
+
+
+def sphere_plans(scene) -> list[BodyPlan]:
+    """Every body a free sphere; qvel0 = (v, w): the free joint's angular velocity is in the
+    body frame, which is the world frame at t = 0 (identity orientation)."""
+    if scene.contact is None:
+        raise ValueError("mujoco adapter: walls need a contact model (scene.contact)")
+    if scene.springs or scene.joints:
+        raise ValueError("mujoco adapter: springs and rods are not combined with contacts "
+                         "(every sphere is a free body)")
+    if scene.linear_drag > 0:
+        raise ValueError("mujoco adapter: linear drag on spheres is not modelled (damping on a "
+                         "free joint would also damp the spin)")
+    if any(b.radius <= 0 for b in scene.bodies):
+        raise ValueError("mujoco adapter: contacts need spheres (radius > 0)")
+    if any(b.inertia <= 0 for b in scene.bodies):
+        raise ValueError("mujoco adapter: a sphere needs its moment of inertia (> 0); the "
+                         "adapter never lets MuJoCo derive one from the geom")
+    if scene.contact.friction > 0 and len(scene.bodies) > MAX_FRICTION_SPHERES:
+        raise ValueError(f"mujoco adapter: friction is modelled for at most "
+                         f"{MAX_FRICTION_SPHERES} spheres (its damping, solreffriction, is "
+                         f"set only on explicit contact pairs, O(n^2) of them)")
+    return [BodyPlan("sphere", i, b.mass, b.position, radius=b.radius, inertia=b.inertia,
+                     qvel0=b.velocity + b.angular_velocity)
+            for i, b in enumerate(scene.bodies)]
+
+
+def rotate(quat: np.ndarray, vec: np.ndarray) -> np.ndarray:
+    """Rotate each vec (n, 3) by its unit quaternion (n, 4) = (w, x, y, z), MuJoCo's order."""
+    w, u = quat[:, :1], quat[:, 1:]
+    t = 2.0 * np.cross(u, vec)
+    return vec + w * t + np.cross(u, t)
+
+
+@dataclass(frozen=True)
+class ContactSetup:
+    """Contact parameters of one sphere scene at one dt and integrator."""
+
+    nbody: int
+    walls: tuple  # ((point), (normal)) pairs
+    restitution_map: RestitutionMap
+    friction: float
+    friction_damping: float
+    variant: str
+
+    @property
+    def impedance(self) -> float:
+        return IMPEDANCE[self.variant]
+
+    @classmethod
+    def make(cls, scene, dt, integrator, variant):
+        rmap = restitution_map(scene.contact.restitution, dt, integrator, IMPEDANCE[variant])
+        mu = scene.contact.friction
+        return cls(len(scene.bodies), tuple((w.point, w.normal) for w in scene.walls), rmap,
+                   mu, friction_damping(dt) if mu > 0 else 0.0, variant)
+
+    @property
+    def condim(self) -> int:
+        return 3 if self.friction > 0 else 1
+
+    def _params(self) -> str:
+        k, b = self.restitution_map.stiffness, self.restitution_map.damping
+        return (f'condim="{self.condim}" solref="{xml_floats(-k)} {xml_floats(-b)}" '
+                f'solimp="{self.impedance!r} {self.impedance!r} 0.001 0.5 2" margin="0" '
+                f'gap="0"')
+
+    def default_xml(self) -> str:
+        """Every geom: the contact parameters; frictional scenes switch automatic contacts off
+        (contype = conaffinity = 0) and list their pairs instead."""
+        if self.friction > 0:
+            return ('<default><geom contype="0" conaffinity="0" friction="0 0 0"/></default>')
+        return (f'<default><geom contype="1" conaffinity="1" friction="0 0 0" '
+                f'{self._params()}/></default>')
+
+    def walls_xml(self) -> str:
+        return "".join(f'<geom name="w{k}" type="plane" pos="{xml_floats(p)}" '
+                       f'zaxis="{xml_floats(n)}" size="0 0 1"/>'
+                       for k, (p, n) in enumerate(self.walls))
+
+    def pairs_xml(self) -> str:
+        if self.friction <= 0:
+            return ""
+        mu = xml_floats(self.friction)
+        attrs = (f'{self._params()} friction="{mu} {mu} 0 0 0" '
+                 f'solreffriction="0 {xml_floats(-self.friction_damping)}"')
+        names = [f"s{i}" for i in range(self.nbody)]
+        pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
+        pairs += [(f"w{k}", a) for k in range(len(self.walls)) for a in names]
+        return "<contact>" + "".join(f'<pair geom1="{a}" geom2="{b}" {attrs}/>'
+                                     for a, b in pairs) + "</contact>"
+
+    def describe(self, dt) -> dict:
+        k = self.restitution_map.stiffness
+        out = {
+            "contact_model": "soft",
+            "restitution_mapping": self.restitution_map.describe(),
+            "solref": [-k, -self.restitution_map.damping],
+            "solref_form": "direct (-stiffness, -damping): relative normal acceleration "
+                           "-K pos - B vel for an isolated contact",
+            "solimp": [self.impedance, self.impedance, 0.001, 0.5, 2.0],
+            "solimp_note": "flat impedance (dmin = dmax, so width/midpoint/power are unused); "
+                           "d cancels from an isolated contact and decides how simultaneous "
+                           "contacts couple",
+            "engine_variant": self.variant or "default",
+            "simultaneous_contacts": VARIANT_NOTES[self.variant],
+            "contact_steps": CONTACT_STEPS,
+            "contact_duration_s": CONTACT_STEPS * dt,
+            "contact_duration_note": "undamped half period pi / sqrt(K); damping shortens it",
+            "condim": self.condim, "cone": "elliptic", "margin": 0.0, "gap": 0.0,
+            "friction": self.friction,
+            "solver": {"name": "Newton", "iterations": SOLVER_ITERATIONS,
+                       "tolerance": SOLVER_TOLERANCE, "tolerance_default_replaced": 1e-8,
+                       "noslip_iterations": 0, "impratio": 1.0},
+            "ccd": "none: MuJoCo finds sphere-sphere and sphere-plane overlaps with analytic "
+                   "primitives at the start of each step (no swept or continuous detection; "
+                   "nativeccd/multiccd concern convex meshes only)",
+            "walls": "plane geoms in the world body, z axis = inward normal (infinite for "
+                     "collision)",
+            "inertia": "explicit <inertial>: scene mass and diaginertia = scene inertia "
+                       "(2/5 m r^2), inertiafromgeom=false, compiled values checked",
+            "contacts": "enabled: sphere-sphere and sphere-wall",
+        }
+        if self.friction > 0:
+            out.update(self._describe_friction())
+        return out
+
+    def _describe_friction(self) -> dict:
+        return {
+            "friction_model": (
+                "condim 3, elliptic cone, mu on every explicit <pair> (sphere-sphere and "
+                "sphere-wall; automatic contacts off); friction rows damped by solreffriction "
+                f"(0, -Bf), Bf = 2 sqrt(K) = {self.friction_damping:.6g} 1/s: critical damping "
+                "at the contact frequency (MuJoCo's default dampratio 1). MuJoCo's regularised "
+                "cone couples sliding friction with the normal force: an impact that slides "
+                "rebounds with less normal speed than Newton's law gives"),
+            "friction_pairs": self.nbody * (self.nbody - 1) // 2 + self.nbody * len(self.walls),
+        }
