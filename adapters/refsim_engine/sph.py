@@ -11,7 +11,7 @@ WALL_LAYERS = 3  # dummy-particle layers: they must cover the kernel support 2h 
 
 
 def fluid_particles(fluid):
-    """Particle centres on a square lattice filling the block, and hydrostatic densities."""
+    """Particle centres on a square lattice filling the block (FluidSim sets their densities)."""
     dx = fluid.spacing
     nx = int(round((fluid.upper[0] - fluid.lower[0]) / dx))
     ny = int(round((fluid.upper[1] - fluid.lower[1]) / dx))
@@ -35,7 +35,7 @@ def wall_particles(fluid):
 class FluidSim(Sim):
     def __init__(self, scene, dt):
         fluid = scene.fluid
-        self.dt, self.t, self.fluid = float(dt), 0.0, fluid
+        self.dt, self.fluid = float(dt), fluid
         g = np.asarray(scene.gravity, float)[:2] if scene.dim == 2 else np.asarray(
             scene.gravity)[[0, 2]]
         x = fluid_particles(fluid)
@@ -49,14 +49,13 @@ class FluidSim(Sim):
         self.state = FluidState(x=x, v=np.zeros_like(x), rho=rho)
         self.geom, self.acc = self.model.start(self.state)
 
-    def step(self, n):
-        for _ in range(int(n)):
+    def _step_impl(self, n):
+        for _ in range(n):
             self.geom, self.acc = self.model.step(self.state, self.geom, self.acc, self.dt)
-            self.t += self.dt
 
-    def observe(self):
+    def _observe(self):
         s = self.state
-        return {"t": self.t, "x": s.x.copy(), "v": s.v.copy(), "rho": s.rho.copy(),
+        return {"x": s.x.copy(), "v": s.v.copy(), "rho": s.rho.copy(),
                 "mass": np.full(len(s.x), self.mass)}
 
     def settings(self):

@@ -21,11 +21,11 @@ CONTACT_VARIANTS = ("discrete", "continuous", "hard_sphere_seed")
 
 
 class ContactSim(Sim):
+    """Spheres and walls stepped by a gravity kick, then the variant's contact formulation.
+    The variant was validated by `Engine.build` (one of CONTACT_VARIANTS)."""
+
     def __init__(self, scene, dt, variant):
-        if variant not in CONTACT_VARIANTS:
-            raise ValueError(f"refsim contact variant must be one of {list(CONTACT_VARIANTS)}, "
-                             f"got {variant!r}")
-        self.dt, self.variant, self.t = float(dt), variant, 0.0
+        self.dt, self.variant = float(dt), variant
         self.x, self.v = scene.positions.copy(), scene.velocities.copy()
         self.w = scene.angular_velocities.copy()
         self.m, self.r = scene.masses, scene.radii
@@ -40,12 +40,11 @@ class ContactSim(Sim):
         self._step = {"discrete": self._discrete, "continuous": self._continuous,
                       "hard_sphere_seed": self._seed}[variant]
 
-    def step(self, n):
-        for _ in range(int(n)):
+    def _step_impl(self, n):
+        for _ in range(n):
             if self.g.any():
                 self.v += self.dt * self.g
             self._step(self.dt)
-            self.t += self.dt
 
     # -- formulations ------------------------------------------------------------------------
     def _overlaps(self):
@@ -113,8 +112,8 @@ class ContactSim(Sim):
         col.project_walls(self.x, s, self.wall_n[wall], wdepth)
 
     # -- contract ----------------------------------------------------------------------------
-    def observe(self):
-        return {"t": self.t, "x": self.x.copy(), "v": self.v.copy(), "w": self.w.copy(),
+    def _observe(self):
+        return {"x": self.x.copy(), "v": self.v.copy(), "w": self.w.copy(),
                 "wall_impulse": self.wall_impulse.copy()}
 
     def settings(self):

@@ -1,0 +1,15 @@
+"""The in-house numpy reference engine, `refsim`, behind the same contract as the others.
+
+Its step is built from `scene.features()` only: gravity, drag, springs and joints become force
+or constraint stages; nothing else is assembled, and energy is never evaluated while stepping.
+Modules, one per model group:
+- `engine`: RefsimEngine (parts, features, integrators, variants, support, which sim to build);
+- `stepped`: the base of the sims run by a `refsim.integrators` stepper;
+- `particles`: ParticleSim (free particles, springs, drag; rods as KKT or penalty springs);
+- `hinges`: HingeSim (rods in generalized coordinates, one angle per rod);
+- `contacts`: ContactSim (spheres and walls with impulses, three formulations);
+- `sph`: FluidSim (2D weakly compressible SPH in a tank) and its particle lattices.
+"""
+from .engine import RefsimEngine
+
+__all__ = ["RefsimEngine"]
