@@ -26,7 +26,7 @@ Y_REFERENCE = 0.05
 class StiffSpring(Case):
     name = "stiff_spring"
     description = "mass on a stiff spring to a fixed anchor, k 1e2..1e6, optional damping"
-    tags = ("particle", "spring", "stiff", "exact")
+    tags = ("particle", "spring", "stiff", "exact", "stability_probe")  # refsim stress runs it
     observable, units = "displacement", "m"
     params = {
         "mass": Param(1.0, 0.0, 1e6, "kg", low_inclusive=False),

@@ -34,7 +34,7 @@ def add_arguments(parser) -> None:
 
 
 def main(args) -> int:
-    from refsim.compare import open_run
+    from refsim.stored_runs import open_run
     run_dir = open_run("RUN_DIR", args.run_dir).dir
     target = None
     if args.target_error is not None:

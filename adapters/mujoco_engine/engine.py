@@ -20,6 +20,10 @@ class MujocoEngine(Engine):
     capabilities = frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"})
     dims = (3,)
     integrators = tuple(METHODS)
+    # the refsim stepper each method equals on an undamped spring (refsim stress's theory)
+    equivalents = {"implicit": "symplectic_euler",  # damping implicit: nothing damped here
+                   "implicitfast": "symplectic_euler",
+                   "discrete": "implicit_euler"}  # spring stiffness and damping implicit
 
     def _supports(self, scene, integrator):
         """The scene plan's reason (plans.plan_scene), then the discrete-with-contacts one."""

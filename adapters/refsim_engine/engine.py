@@ -27,6 +27,7 @@ class RefsimEngine(Engine):
                               "fluid"})
     dims = (2, 3)
     integrators = INTEGRATORS
+    reference = True  # the in-house reference simulator: listed and reported first
 
     # Baumgarte rate w = 5 w0 (w0 = sqrt(|g|/L), or 1 rad/s without gravity): a fixed physical
     # rate keeps every stepper's order (a rate tied to 1/dt drops RK4 to second order), and

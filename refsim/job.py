@@ -1,0 +1,247 @@
+"""One job of the matrix: a case x variant x engine x formulation x integrator x dt, run as
+two passes on fresh models. The accuracy pass steps to each sample time, observes and checks
+for divergence; the timing pass warms up, then repeats `Sim.step(N)` with nothing observed
+and keeps min and median. A failure is a row with a status, never a crash of the sweep.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from refsim.engine import IntegratorInfo, jsonable
+from refsim.integrators import get_integrator
+from refsim.metrics import energy_drift, error_norms
+from refsim.registry import get_case, get_engine
+
+STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
+LONG_RUN_S = 0.5  # accuracy passes longer than this give the timing sample themselves
+BUDGET_S = 0.5  # a timing pass stops repeating once its runs have taken this long
+
+
+@dataclass(frozen=True)
+class Job:
+    case: str
+    variant: str
+    engine: str
+    engine_variant: str
+    integrator: str
+    dt: float
+    params: tuple = ()  # case parameter overrides, sorted (name, value) pairs
+
+    @property
+    def label(self) -> str:
+        eng = self.engine + (f":{self.engine_variant}" if self.engine_variant else "")
+        return f"{self.case}/{self.variant} {eng} {self.integrator} dt={self.dt:.3g}"
+
+
+
+# ---------------------------------------------------------------------------------------------
+# One job
+# ---------------------------------------------------------------------------------------------
+def _blank_row(job: Job, run_id: str) -> dict:
+    row = {"run_id": run_id, **asdict(job), "params": json.dumps(dict(job.params)),
+           "engine_version": "", "steps": 0,
+           "t_end": float("nan"), "status": "", "reason": "", "nominal_order": float("nan")}
+    for col in ("err_max", "err_final", "err_rms", "energy_drift", "constraint_drift",
+                "momentum_drift", "penetration_max", "conservation_err",
+                "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step",
+                "tolerance", "diverged_t", "wall_s", "engine_s"):
+        row[col] = float("nan")
+    row.update(repeats=0, settings="{}", within_tol=False, tol_capped=False, tol_reason="",
+               samples=0, timing="")
+    return row
+
+
+def run_job(job: Job, run_id: str = "", repeats: int = 3, budget_s: float = BUDGET_S,
+            keep_trajectory: bool = False) -> dict:
+    """One row. repeats=0 skips the timing pass; keep_trajectory adds the stacked observations
+    under "trajectory" (for tests and plots; never stored in the table)."""
+    row = _blank_row(job, run_id)
+    t0 = time.perf_counter()
+    clock = EngineClock()
+    try:
+        _run_job(job, row, repeats, budget_s, keep_trajectory, clock)
+    except Exception as exc:  # a failure is a row, never a crash of the sweep
+        row.update(status="failed", reason=f"{type(exc).__name__}: {exc}".splitlines()[0])
+    row.update(wall_s=time.perf_counter() - t0, engine_s=clock.total)
+    return row
+
+
+class EngineClock:
+    """Time spent inside engine calls (build, step, observe, close) in both passes: the rest
+    of a row's wall time is the harness's own (references, metrics, checks, storage)."""
+
+    def __init__(self):
+        self.total = 0.0
+
+    def call(self, fn, *args):
+        t0 = time.perf_counter()
+        try:
+            return fn(*args)
+        finally:
+            self.total += time.perf_counter() - t0
+
+
+def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
+    case, engine = get_case(job.case), get_engine(job.engine)
+    p = case.variant_params(job.variant, dict(job.params))
+    scene = case.scene(p)
+    if not engine.available():
+        row.update(status="unavailable", reason=f"{engine.package} is not installed")
+        return
+    row["engine_version"] = engine.version()
+    reason = engine.supports(scene, job.integrator or None)
+    if reason is not None:
+        row.update(status="unsupported", reason=reason)
+        return
+    steps = int(round(case.t_end(p) / job.dt))
+    stride = max(1, int(round(case.sample_dt(p) / job.dt)))
+    row.update(steps=steps, t_end=steps * job.dt)
+    sim, setup_s = clock.call(_build, engine, scene, job)
+    row.update(setup_s=setup_s, compile_s=sim.compile_s,
+               settings=json.dumps(jsonable(sim.settings())),
+               nominal_order=_nominal_order(sim, job))
+    obs, diverged, stepping_s = _accuracy_pass(case, p, sim, steps, stride, clock)
+    clock.call(sim.close)
+    stacked = {k: np.array([o[k] for o in obs]) for k in obs[0]}
+    if diverged:
+        row.update(status="diverged", reason=diverged[0], diverged_t=diverged[1],
+                   samples=len(obs))
+        return
+    row.update(_accuracy_metrics(case, p, stacked), status="ok", samples=len(obs))
+    if keep_trajectory:
+        row["trajectory"] = stacked
+    if math.isclose(job.dt, case.reference_dt(p), rel_tol=1e-9):
+        row["series"] = series(case, p, stacked)
+    tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
+                              job.engine_variant, json.loads(row["settings"]))
+    row["tol_capped"] = bool(tol >= case.motion_scale(p))
+    if row["tol_capped"]:  # a bound larger than the motion would accept any answer
+        tol, why = case.motion_scale(p), (f"{why}; that bound ({tol:.3g}) exceeds the motion "
+                                          f"itself: capped at the motion scale (this dt does "
+                                          f"not resolve the case with this method)")
+    row.update(tolerance=tol, tol_reason=why,
+               within_tol=bool(row[case.tolerance_column(p)] <= tol))
+    if repeats > 0 and stepping_s > max(budget_s, LONG_RUN_S):
+        # a long run: its step() calls in the accuracy pass (observation outside them) are
+        # the one timing sample; repeating it would only double the wall time. Its <= ~400
+        # calls cost ~30 us each at most in per-call overhead (a taichi launch, ENGINE_NOTES):
+        # <= 12 ms, < 2.5 % of a run this long
+        row.update(step_s=stepping_s, step_s_median=stepping_s, repeats=1,
+                   us_per_step=stepping_s / steps * 1e6, timing="accuracy-pass step calls")
+    elif repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
+        row.update(clock.call(_timing_pass, engine, scene, job, steps, repeats, budget_s),
+                   timing="fresh models, min of repeats")
+
+
+def _build(engine, scene, job):
+    t0 = time.perf_counter()
+    sim = engine.build(scene, job.dt, job.integrator, job.engine_variant)
+    return sim, time.perf_counter() - t0 - sim.compile_s
+
+
+def _nominal_order(sim, job):
+    described = IntegratorInfo.of(sim.settings())
+    if described is not None:
+        return float(described.order)
+    try:
+        return float(get_integrator(job.integrator).order)
+    except ValueError:
+        return float("nan")
+
+
+def _accuracy_pass(case, p, sim, steps, stride, clock):
+    """Observe at t = 0 and every `stride` steps; stop at the first sign of divergence.
+    Returns the observations, the divergence (reason, t) or None, and the time spent inside
+    `Sim.step` calls only."""
+    obs = [clock.call(sim.observe)]
+    e_scale = case.energy_scale(p)
+    done, stepping = 0, 0.0
+    while done < steps:
+        n = min(stride, steps - done)
+        t0 = time.perf_counter()
+        sim.step(n)
+        stepping += time.perf_counter() - t0
+        done += n
+        o = clock.call(sim.observe)
+        obs.append(o)
+        why = _divergence(case, p, sim, o, obs[0], e_scale)
+        if why:
+            clock.total += stepping
+            return obs, (f"{why} at t={o['t']:.6g} s", o["t"]), stepping
+    clock.total += stepping
+    return obs, None, stepping
+
+
+SERIES_POINTS = 400  # samples kept per stored time series (for the report's plots)
+
+
+def series(case, p, stacked) -> dict:
+    """Energy and the 1-D observables against time, at most SERIES_POINTS samples: what the
+    report plots at the reference dt (the results table keeps only the norms)."""
+    t = np.asarray(stacked["t"], float)
+    keep = np.unique(np.linspace(0, len(t) - 1, min(len(t), SERIES_POINTS)).astype(int))
+    out = {"t": t[keep].tolist()}
+    energy = case.energy(p, stacked)
+    if energy is not None:
+        out["energy"] = np.asarray(energy, float)[keep].tolist()
+    for name, values in case.observables(p, stacked).items():
+        values = np.asarray(values, float)
+        if values.shape == t.shape:
+            out[name] = values[keep].tolist()
+    return out
+
+
+def _divergence(case, p, sim, o, first, e_scale):
+    if sim.failure:
+        return sim.failure
+    if not (np.all(np.isfinite(o["x"])) and np.all(np.isfinite(o["v"]))):
+        return "non-finite state"
+    stacked = {k: np.asarray([o[k]]) for k in o}
+    energy = case.energy(p, stacked)
+    if energy is not None:
+        e0 = case.energy(p, {k: np.asarray([first[k]]) for k in first})[0]
+        if abs(energy[0] - e0) > case.divergence_factor * e_scale:
+            return f"energy beyond {case.divergence_factor:g} x the energy scale"
+    return None
+
+
+def _accuracy_metrics(case, p, stacked):
+    observed = case.observables(p, stacked)
+    reference = case.reference(p, stacked["t"])
+    out = error_norms(case.error(p, observed, reference))
+    energy = case.energy(p, stacked)
+    ref_energy = (case.reference_energy(p, stacked["t"]) if hasattr(case, "reference_energy")
+                  else None)
+    if energy is not None:
+        ref = np.full(len(energy), energy[0]) if ref_energy is None else ref_energy
+        mask = (case.energy_mask(p, stacked["t"]) if hasattr(case, "energy_mask")
+                else np.ones(len(energy), bool))
+        out["energy_drift"] = energy_drift(energy[mask], ref[mask], case.energy_scale(p))
+    if "constraint" in observed:
+        out["constraint_drift"] = float(np.max(np.abs(observed["constraint"])))
+    out.update(case.extra_metrics(p, stacked, observed, reference))
+    return out
+
+
+def _timing_pass(engine, scene, job, steps, repeats, budget_s):
+    """`repeats` fresh models each stepped N times (within a time budget, at least once),
+    nothing observed inside the timed region. The accuracy pass just ran the same code on the
+    same scene and step: it is the warm-up (compilation, caches, lazy imports)."""
+    times, setups, spent = [], [], 0.0
+    while len(times) < max(1, repeats) and (not times or spent < budget_s):
+        sim, setup_s = _build(engine, scene, job)
+        t0 = time.perf_counter()
+        sim.step(steps)
+        times.append(time.perf_counter() - t0)
+        sim.close()
+        setups.append(setup_s)
+        spent += times[-1] + setup_s
+    best = min(times)
+    return {"step_s": best, "step_s_median": float(np.median(times)),
+            "us_per_step": best / steps * 1e6, "repeats": len(times),
+            "setup_s": min(setups)}
