@@ -1,0 +1,168 @@
+"""2D weakly compressible SPH (feature "fluid"; velocity_verlet only): refsim's model
+(`refsim.models.sph`: Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH density
+diffusion, Adami 2012 wall particles, negative pressures clamped to 0 or kept) and refsim's
+kick-drift-kick step with the trapezoid density drift, as taichi kernels (sph_physics,
+sph_kernels). Particles, masses and initial densities are built by the in-house engine's own
+functions (`adapters.refsim_sph`), so both engines start from the same bits. Engine variant
+"parallel": one launch per step of a kernel whose stages are multi-threaded loops (gathers, no
+atomics: the same bits)."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from refsim.models.sph import tait_density
+
+from .runtime import THREADS, runtime, to_ndarray
+from .sim import KernelSim
+
+SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)
+SPH_STATS = ("steps_without_grid", "steps")  # the kernels' counters, in `stats` order
+
+
+def initial_particles(fluid, gravity):
+    """Fluid positions, wall particle positions and the fluid's hydrostatic Tait density,
+    built as adapters.refsim_sph.FluidSim builds them."""
+    from ..refsim_sph import fluid_particles, wall_particles
+    x = fluid_particles(fluid)
+    walls = wall_particles(fluid)
+    depth = fluid.upper[1] - x[:, 1]
+    rho = tait_density(fluid.density * abs(gravity[1]) * depth, fluid.density,
+                       fluid.sound_speed)
+    return x, walls, rho
+
+
+class FluidSim(KernelSim):
+    """Fluid particles then wall particles in one (x, v) pair of vec2 ndarrays; density,
+    pressure, rates, the grid and counters in the `sph_t` argpack."""
+
+    system = "sph"
+
+    def __init__(self, scene, dt, integrator, variant):
+        from ..refsim_sph import WALL_LAYERS
+        from .sph_kernels import sph_t, vec2
+        fluid = self.fluid = scene.fluid
+        self.gravity = (np.asarray(scene.gravity, float)[:2] if scene.dim == 2
+                        else np.asarray(scene.gravity, float)[[0, 2]])
+        x, walls, rho = initial_particles(fluid, self.gravity)
+        self.n_fluid, self.n_wall, self.wall_layers = len(x), len(walls), WALL_LAYERS
+        self.mass = fluid.density * fluid.spacing ** 2
+        self.h = fluid.smoothing * fluid.spacing
+        self.cells = SPH_CELLS_PER_PARTICLE * (self.n_fluid + self.n_wall) + 64
+        self.nd = {key: to_ndarray(arr) for key, arr in self._arrays(rho).items()}
+        self.x = to_ndarray(np.concatenate([x, walls]))
+        self.v = to_ndarray(np.zeros((self.n_fluid + self.n_wall, 2)))
+        pack = sph_t(n_fluid=self.n_fluid, no_slip=int(fluid.no_slip),
+                     tension=int(fluid.tension), mass=self.mass, h=self.h,
+                     rho0=fluid.density, c0=fluid.sound_speed,
+                     alpha=fluid.viscosity_alpha, delta=fluid.delta,
+                     gravity=vec2(*self.gravity), cell_min=self.cell_min(self.h), **self.nd)
+        super().__init__(dt, integrator, variant, (self.x, self.v, pack))
+        if variant == "parallel":
+            self._compile_parallel()
+
+    def _arrays(self, rho) -> dict:
+        """Densities (walls at rho0), pressures, rates, accelerations, grid scratch, counters."""
+        total = self.n_fluid + self.n_wall
+        return {"rho": np.concatenate([rho, np.full(self.n_wall, self.fluid.density)]),
+                "p": np.zeros(total), "drho": np.zeros(self.n_fluid),
+                "diffused": np.zeros(self.n_fluid),
+                "acc": np.zeros((self.n_fluid, 2)),
+                "cell_count": np.zeros(self.cells, np.int32),
+                "cell_start": np.zeros(self.cells, np.int32),
+                "cell_of": np.zeros(total, np.int32), "order": np.zeros(total, np.int32),
+                "grid": np.zeros(3), "dims": np.zeros(2, np.int32),
+                "stats": np.zeros(len(SPH_STATS), np.int64)}
+
+    def _compile_parallel(self):
+        """The `parallel` variant: one launch per step of a kernel whose stages are top-level
+        (multi-threaded) loops. Its first launch compiles; it is made here with dt = 0, a
+        no-op on the state (v, x, rho unchanged; a and the grid recomputed from the same
+        state by the same functions, so the same bits), and timed into compile_s."""
+        from .sph_kernels import advance_sph_parallel, step_sph_parallel
+        rt = runtime()
+        key = ("sph", "parallel")
+        t0 = time.perf_counter()
+        step_sph_parallel(*self.args, 0.0)
+        rt["ti"].sync()
+        self.compile_s += time.perf_counter() - t0
+        self.cold = self.cold or key not in rt["compiled"]
+        rt["compiled"].add(key)
+        self.nd["stats"].from_numpy(np.zeros(len(SPH_STATS), np.int64))
+        self.advance = advance_sph_parallel
+
+    def _thread_settings(self, base) -> dict:
+        if self.variant != "parallel":
+            return {"threads_used": 1,
+                    "threads_note": "taichi parallelises only a kernel's outermost loop; here "
+                                    "it is the serialised time loop, so the SPH kernel uses "
+                                    "one thread whatever cpu_max_num_threads is"}
+        return {"threads_used": base["cpu_max_num_threads"],
+                "time_loop": "one launch per step from Python; each stage a top-level loop "
+                             "run on cpu_max_num_threads threads (counting sort serial)",
+                "per_step_python_call": "one kernel launch per step (part of step_s)",
+                "threads_note": "stages gather per particle (no atomics), so results are "
+                                "bit-identical to the serial kernel at any thread count; "
+                                "the process pins cpu_max_num_threads at ti.init "
+                                f"(THREADS = {THREADS} in this adapter)"}
+
+    @staticmethod
+    def cell_min(h) -> float:
+        """Grid cell: the kernel support 2h, widened by 1e-12 so that the rounding of
+        (x - lo) / c never puts a pair closer than 2h two cells apart."""
+        return 2.0 * h * (1.0 + 1e-12)
+
+    def _step_impl(self, n):
+        super()._step_impl(n)
+        if self.sph_stats()["steps_without_grid"]:
+            self.failure = f"non-finite particle positions by t={self.time_after(n):.6g}"
+
+    def sph_stats(self) -> dict:
+        return dict(zip(SPH_STATS, (int(c) for c in self.nd["stats"].to_numpy())))
+
+    def _observe(self):
+        n = self.n_fluid
+        return {"x": self.x.to_numpy()[:n].copy(), "v": self.v.to_numpy()[:n].copy(),
+                "rho": self.nd["rho"].to_numpy()[:n].copy(), "mass": np.full(n, self.mass)}
+
+    def settings(self):
+        f = self.fluid
+        base = self.base_settings()
+        integ = {"name": "velocity_verlet", "order": 2,
+                 "family": "kick-drift-kick (leapfrog) with continuity density",
+                 "explicit": True, "symplectic": False,
+                 "native": "kernel advance_sph: v += h/2 a(x, rho); D0 = D(x, v); "
+                           "Dd = D_delta(x, rho); x += h v; rho += h/2 (D0 + D(x', v)) + h Dd; "
+                           "v += h/2 a(x', rho')"}
+        return {**base, "integrator": integ,
+                "model": "WCSPH: Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH "
+                         "density diffusion, Adami walls",
+                "model_source": "refsim.models.sph (same expressions, same operation order)",
+                "delta_sph": f.delta,
+                "pressure": "Tait, negative kept (tension)" if f.tension else
+                "Tait, clamped at 0",
+                "smoothing_h": self.h, "h_over_dx": f.smoothing, "sound_speed": f.sound_speed,
+                "viscosity_alpha": f.viscosity_alpha, "rho0": f.density,
+                "walls": "no-slip (viscosity on wall pairs)" if f.no_slip else
+                "free-slip (pressure only)",
+                "gravity_2d": self.gravity.tolist(),
+                "particles": self.n_fluid, "wall_particles": self.n_wall,
+                "wall_layers": self.wall_layers,
+                "initial_conditions": "adapters.refsim_sph fluid_particles / wall_particles, "
+                                      "hydrostatic Tait density (identical to refsim's)",
+                "neighbours": "uniform grid over the bounding box, cell 2h (enlarged to fit "
+                              f"{SPH_CELLS_PER_PARTICLE} N + 64 cells), serial counting sort, "
+                              "every step; 3 x 3 cells gathered per particle",
+                "pair_sums": "gathered by each particle over its own neighbours (no atomics, "
+                             "no scatter): fluid-fluid and fluid-wall, wall-wall never",
+                "determinism": "bit-reproducible: each sum gathered by its particle in a "
+                               "fixed order (no atomics), counting sort serial; differs from "
+                               "refsim's numpy engine in summation order only",
+                **self._thread_settings(base),
+                "stages": ["gravity", "neighbours", "sph_rates", "walls_adami",
+                           "integrate:kick-drift-kick"]}
+
+
+SPH_STATS = ("steps_without_grid", "steps")
+
