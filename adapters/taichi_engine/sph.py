@@ -3,7 +3,7 @@
 diffusion, Adami 2012 wall particles, negative pressures clamped to 0 or kept) and refsim's
 kick-drift-kick step with the trapezoid density drift, as taichi kernels (sph_physics,
 sph_kernels). Particles, masses and initial densities are built by the in-house engine's own
-functions (`adapters.refsim_sph`), so both engines start from the same bits. Engine variant
+functions (`adapters.refsim_engine.sph`), so both engines start from the same bits. Engine variant
 "parallel": one launch per step of a kernel whose stages are multi-threaded loops (gathers, no
 atomics: the same bits)."""
 from __future__ import annotations
@@ -23,8 +23,8 @@ SPH_STATS = ("steps_without_grid", "steps")  # the kernels' counters, in `stats`
 
 def initial_particles(fluid, gravity):
     """Fluid positions, wall particle positions and the fluid's hydrostatic Tait density,
-    built as adapters.refsim_sph.FluidSim builds them."""
-    from ..refsim_sph import fluid_particles, wall_particles
+    built as adapters.refsim_engine.sph.FluidSim builds them."""
+    from ..refsim_engine.sph import fluid_particles, wall_particles
     x = fluid_particles(fluid)
     walls = wall_particles(fluid)
     depth = fluid.upper[1] - x[:, 1]
@@ -40,7 +40,7 @@ class FluidSim(KernelSim):
     system = "sph"
 
     def __init__(self, scene, dt, integrator, variant):
-        from ..refsim_sph import WALL_LAYERS
+        from ..refsim_engine.sph import WALL_LAYERS
         from .sph_kernels import sph_t, vec2
         fluid = self.fluid = scene.fluid
         self.gravity = (np.asarray(scene.gravity, float)[:2] if scene.dim == 2
@@ -149,7 +149,7 @@ class FluidSim(KernelSim):
                 "gravity_2d": self.gravity.tolist(),
                 "particles": self.n_fluid, "wall_particles": self.n_wall,
                 "wall_layers": self.wall_layers,
-                "initial_conditions": "adapters.refsim_sph fluid_particles / wall_particles, "
+                "initial_conditions": "adapters.refsim_engine.sph fluid_particles / wall_particles, "
                                       "hydrostatic Tait density (identical to refsim's)",
                 "neighbours": "uniform grid over the bounding box, cell 2h (enlarged to fit "
                               f"{SPH_CELLS_PER_PARTICLE} N + 64 cells), serial counting sort, "
