@@ -15,15 +15,38 @@ from .adaptive import AdaptiveDormandPrince
 from .base import Integrator, StepFailure, configuration_update
 from .explicit_rk import ExplicitRK
 from .implicit import BaraffWitkin, ImplicitEuler
-from .symplectic import (Leapfrog, StormerVerlet, SymplecticEulerDK, SymplecticEulerKD,
-                         VelocityVerlet)
+from .symplectic import (
+    Leapfrog,
+    StormerVerlet,
+    SymplecticEulerDK,
+    SymplecticEulerKD,
+    VelocityVerlet,
+)
 from .tableaux import DOPRI5, EULER, HEUN, MIDPOINT, RK4, Tableau, rk2_tableau
 
 __all__ = [
-    "AdaptiveDormandPrince", "BaraffWitkin", "DOPRI5", "EULER", "ExplicitRK", "HEUN",
-    "INTEGRATORS", "ImplicitEuler", "Integrator", "Leapfrog", "MIDPOINT", "PARAMETRISED",
-    "RK4", "StepFailure", "StormerVerlet", "SymplecticEulerDK", "SymplecticEulerKD", "Tableau",
-    "VelocityVerlet", "configuration_update", "get_integrator", "rk2_tableau",
+    "DOPRI5",
+    "EULER",
+    "HEUN",
+    "INTEGRATORS",
+    "MIDPOINT",
+    "PARAMETRISED",
+    "RK4",
+    "AdaptiveDormandPrince",
+    "BaraffWitkin",
+    "ExplicitRK",
+    "ImplicitEuler",
+    "Integrator",
+    "Leapfrog",
+    "StepFailure",
+    "StormerVerlet",
+    "SymplecticEulerDK",
+    "SymplecticEulerKD",
+    "Tableau",
+    "VelocityVerlet",
+    "configuration_update",
+    "get_integrator",
+    "rk2_tableau",
 ]
 
 _FACTORIES = {
@@ -59,7 +82,8 @@ def get_integrator(spec: str) -> Integrator:
     try:
         value = float(arg)
     except ValueError:
-        raise ValueError(f"integrator {name} parameter: {PARAMETRISED[name]}; got {arg!r}") from None
+        raise ValueError(f"integrator {name} parameter: {PARAMETRISED[name]}; "
+                         f"got {arg!r}") from None
     if name == "rk2":
         return ExplicitRK(f"rk2:{value:g}", rk2_tableau(value))
     return AdaptiveDormandPrince(rtol=value, atol=value * 1e-3)
