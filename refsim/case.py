@@ -227,6 +227,8 @@ def order_tolerance(scale: float, omega_t: float, y: float, order: int,
 
 
 def is_symplectic(settings) -> bool:
-    """The engine's own declaration of its stepper (Sim.settings()["integrator"])."""
-    described = (settings or {}).get("integrator", {})
-    return bool(isinstance(described, dict) and described.get("symplectic", False))
+    """The engine's own declaration of its stepper (Sim.settings()["integrator"], read as an
+    IntegratorInfo)."""
+    from refsim.engine import IntegratorInfo
+    described = IntegratorInfo.of(settings)
+    return bool(described is not None and described.symplectic)

@@ -63,6 +63,33 @@ class IntegratorInfo:
         return None
 
 
+@dataclass(frozen=True)
+class ContactInfo:
+    """What contact tolerances read of an engine's settings: the contact model ("impulse":
+    Newton restitution at the impact; "soft": a spring-damper whose restitution comes from a
+    damping ratio), the detection ("discrete" at the end of a step, or "continuous"), the
+    soft contact's calibration residual |e_obtained - e| and its contact duration (s)."""
+
+    model: str = "impulse"
+    detection: str = "discrete"
+    restitution_residual: float = 0.0
+    duration_s: float = 0.0
+
+    @classmethod
+    def of(cls, settings) -> "ContactInfo":
+        """From an engine's settings dict (keys contact_model, detection, restitution_mapping
+        .residual_max, contact_duration_s); the defaults where absent."""
+        s = settings if isinstance(settings, dict) else {}
+        mapping = s.get("restitution_mapping", {})
+        residual = mapping.get("residual_max", 0.0) if isinstance(mapping, dict) else 0.0
+        return cls(str(s.get("contact_model", "impulse")), str(s.get("detection", "discrete")),
+                   float(residual), float(s.get("contact_duration_s", 0.0)))
+
+    @property
+    def soft(self) -> bool:
+        return self.model == "soft"
+
+
 def jsonable(value):
     """Settings as plain JSON data: dataclasses (IntegratorInfo...) become dicts."""
     if is_dataclass(value) and not isinstance(value, type):
