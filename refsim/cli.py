@@ -72,6 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="smaller batch, fewer repeats")
     bench.add_argument("--sph", action="store_true", help="the same as `refsim bench sph` "
                        "(kept for earlier command lines)")
+    bench.add_argument("--out", default=None, help="runs directory for the stored figures "
+                       "(default reports/runs)")
     for name, text in SUBCOMMANDS.items():
         module = importlib.import_module(f"refsim.{name}")
         module.add_arguments(sub.add_parser(name, help=text))
@@ -94,8 +96,8 @@ def main(argv=None) -> int:
         if args.command == "run":
             return cmd_run(args, argv)
         if args.command == "bench":
-            from refsim.registry import entry
-            return entry("bench", "sph" if args.sph else args.name).load()(quick=args.quick)
+            from refsim.figure_runs import run_bench
+            return run_bench("sph" if args.sph else args.name, args.quick, args.out)
         if args.command in SUBCOMMANDS:
             return importlib.import_module(f"refsim.{args.command}").main(args)
     except ValueError as exc:

@@ -19,6 +19,8 @@ Regression (B worse than A), judged only where the row is `ok` in A:
      between runs, and by 2-3x on a loaded machine, where `--no-time` (timings shown, never
      judged) or a larger threshold is the honest gate). Rows without timings (nan
      us_per_step) are not judged on time; a note says when the CPU or thread count differ.
+     A stored definition may name another time column in microseconds (`time_column`, e.g.
+     a bench figure timing a whole computation whose step count is the method's own).
 A row not `ok` in A is never a regression; `ok` in B it is "improved" (fixed). A row `ok` in
 both is "improved" too when it came back within tolerance, or when err_A (above the floor)
 exceeds error_threshold x err_B; timings never make a row "improved".
@@ -199,7 +201,8 @@ def judge(ra: dict, rb: dict, error_threshold: float, time_threshold: float,
     definition = definition or {}
     norm = definition.get("tolerance_column", "err_max")
     err_a, err_b = _number(ra, norm), _number(rb, norm)
-    us_a, us_b = _number(ra, "us_per_step"), _number(rb, "us_per_step")
+    time_column = definition.get("time_column", "us_per_step")
+    us_a, us_b = _number(ra, time_column), _number(rb, time_column)
     out = {"norm": norm, "err_a": err_a, "err_b": err_b, "err_ratio": _ratio(err_b, err_a),
            "us_a": us_a, "us_b": us_b, "time_ratio": _ratio(us_b, us_a),
            "status_a": ra["status"], "status_b": rb["status"]}
@@ -213,7 +216,8 @@ def judge(ra: dict, rb: dict, error_threshold: float, time_threshold: float,
     floor = _roundoff_floor(ra, rb, definition.get("error_floor", 0.0))
     worse = (_error_regression(err_a, err_b, error_threshold, floor)
              + _tolerance_regression(ra, rb, norm)
-             + (_time_regression(us_a, us_b, time_threshold) if judge_time else []))
+             + (_time_regression(us_a, us_b, time_threshold, time_column) if judge_time
+                else []))
     if worse:
         return {**out, "verdict": "regression", "reasons": "; ".join(worse)}
     better = _improved(err_a, err_b, error_threshold, floor, ra, rb)
@@ -240,10 +244,12 @@ def _tolerance_regression(ra, rb, norm) -> list[str]:
     return []
 
 
-def _time_regression(us_a, us_b, threshold) -> list[str]:
-    """Rule 4: us_per_step_B > threshold x us_per_step_A, both measured."""
+def _time_regression(us_a, us_b, threshold, column="us_per_step") -> list[str]:
+    """Rule 4: us_per_step_B > threshold x us_per_step_A (or the stored definition's
+    `time_column`, in microseconds), both measured."""
+    unit = "us/step" if column == "us_per_step" else f"us ({column})"
     if math.isfinite(us_a) and math.isfinite(us_b) and us_b > threshold * us_a:
-        return [f"time x{us_b / us_a:.3f} ({us_a:.3g} -> {us_b:.3g} us/step, threshold "
+        return [f"time x{us_b / us_a:.3f} ({us_a:.3g} -> {us_b:.3g} {unit}, threshold "
                 f"{threshold:g})"]
     return []
 

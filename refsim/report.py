@@ -114,9 +114,10 @@ def _case_section(d, rows, series, target_error, out):
     target = target_error if target_error is not None else d["target_error"]
     title = f"{d['case']} / {d['variant']}"
     slug = title.replace(" / ", "-").replace("/", "_").replace(" ", "_").replace("=", "")
-    blocks = [("h2", title), ("p", f"{d['description']}. Compared: `{col}` of "
-                                   f"{observable} ({units}).")]
-    blocks.append(("p", recommendation(rows, col, units, target)))
+    compared = f" Compared: `{col}` of {observable} ({units})." if observable else ""
+    blocks = [("h2", title), ("p", f"{d['description']}.{compared}")]
+    if math.isfinite(target):  # a definition with no target error gets no recommendation
+        blocks.append(("p", recommendation(rows, col, units, target)))
     ran = rows[np.isfinite(rows["dt"])]
     figures = [
         plots.work_precision(ran, col, units, out / "plots" / f"{slug}-work.png",
@@ -136,7 +137,8 @@ def _case_section(d, rows, series, target_error, out):
     orders = order_table(ran) if d.get("order_meaningful", True) else pd.DataFrame()
     if len(orders):
         blocks += [("h3", "Measured against nominal order"), ("table", orders)]
-    blocks += [("h3", "Results"), ("table", compact_table(rows, col))]
+    blocks += [("h3", "Results"), ("table", compact_table(rows, col,
+                                                          d.get("report_columns", ())))]
     return blocks
 
 
@@ -178,10 +180,13 @@ def order_table(rows) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
-def compact_table(rows, col) -> pd.DataFrame:
+def compact_table(rows, col, extra=()) -> pd.DataFrame:
+    """One line per row; `extra`: further columns the stored definition asks to show."""
     out = []
     for _, r in rows.iterrows():
-        if r["status"] == "ok":
+        if r["status"] == "ok" and np.isnan(float(r.get("tolerance", np.nan))):
+            status = "ok (no tolerance)"
+        elif r["status"] == "ok":
             status = "ok" if r["within_tol"] in (True, "True") else "ok, above tolerance !"
         else:
             status = f"{r['status']}: {r['reason']}"
@@ -190,8 +195,17 @@ def compact_table(rows, col) -> pd.DataFrame:
                     "dt": _fmt(r["dt"]), col: _fmt(r[col], ".2e"),
                     "energy_drift": _fmt(r["energy_drift"], ".2e"),
                     "order": _fmt(r.get("order", np.nan), ".2f"),
-                    "us/step": _fmt(r["us_per_step"]), "status": status})
+                    "us/step": _fmt(r["us_per_step"]), "status": status,
+                    **{c: _cell(r.get(c)) for c in extra}})
     return pd.DataFrame(out)
+
+
+def _cell(value) -> str:
+    if isinstance(value, float) and math.isinf(value):
+        return str(value)  # an unbounded figure (e.g. a stability limit) is data, not "-"
+    if value is None or isinstance(value, (int, float)):
+        return _fmt(value, ".4g")
+    return str(value)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -31,8 +31,10 @@
    `at_step` is the step of the labelled event; `detail` the engine's message and when the
    energy first reached F E0.
 4. Store: stress_limits.csv, stress_sweep.csv and manifest.json in a new run directory under
-   --out (default reports/runs); both tables are printed with the directory. Exit 0: a
-   measured instability is data.
+   --out (default reports/runs), and the same figures as an ordinary stored run there
+   (results.csv, rows.jsonl, cases.json: refsim.stress_store) that `refsim report` and
+   `refsim compare` read; both tables are printed with the directory. Exit 0: a measured
+   instability is data.
 """
 from __future__ import annotations
 
@@ -49,6 +51,7 @@ import pandas as pd
 
 from refsim import store
 from refsim.stress_report import atomic_csv, print_report
+from refsim.stress_store import store_run
 from refsim.integrators import get_integrator
 from refsim.stress_search import (ENERGY_FACTOR, Y_MAX, Y_MIN, Criterion, Spring, find_limit,
                                   finite_time, refsim_equivalent, theory)
@@ -101,6 +104,7 @@ def main(args) -> int:
     atomic_csv(st.dir / "stress_limits.csv", limits)
     sweep = sweep_table(opts)
     atomic_csv(st.dir / "stress_sweep.csv", sweep)
+    store_run(st, opts, spring, limits, sweep)
     st.update_manifest(status="complete", wall_s=round(time.perf_counter() - t0, 2))
     print_report(opts, spring, limits, sweep)
     print(st.dir)

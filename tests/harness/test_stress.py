@@ -5,15 +5,22 @@ limit the stated criterion predicts from the method's exact step map (`finite_ti
 within that prediction's resolution of the asymptotic limit (2, 2 sqrt 2, 0.99719, ...).
 """
 import argparse
+import contextlib
+import io
 import json
 import math
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from refsim.registry import get_engine
-from refsim import stress
+from refsim import stress, stress_store
+from refsim.compare import compare_runs
+from refsim.report import write_report
+from refsim.store import KEY, load_definitions_list, load_results
+from refsim.stored_runs import open_run
 from refsim.integrators import get_integrator
 from refsim.stress_search import (Criterion, Spring, batch_evaluator, batch_stepper,
                                   find_limit, finite_time, sim_evaluator, theory)
@@ -164,11 +171,21 @@ def test_sweep_integrators():
 
 
 # 4. command: store, output, bad input -------------------------------------------------------
-def test_quick_run_writes_both_tables_and_manifest(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    """One quick stress run on refsim's symplectic and implicit Euler: (run dir, stdout)."""
+    out_dir = tmp_path_factory.mktemp("stress")
     args = parse("--engine", "refsim", "--integrator", "symplectic_euler", "--integrator",
-                 "implicit_euler", "--quick", "--out", str(tmp_path))
-    assert stress.main(args) == 0
-    (run,) = tmp_path.iterdir()
+                 "implicit_euler", "--quick", "--out", str(out_dir))
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert stress.main(args) == 0
+    (run,) = out_dir.iterdir()
+    return run, printed.getvalue()
+
+
+def test_quick_run_writes_both_tables_and_manifest(quick_run):
+    run, out = quick_run
     manifest = json.loads((run / "manifest.json").read_text())
     assert manifest["status"] == "complete" and manifest["kind"] == "stress"
     assert manifest["command"].startswith("refsim stress --engine refsim")
@@ -176,9 +193,65 @@ def test_quick_run_writes_both_tables_and_manifest(tmp_path, capsys):
     limits = (run / "stress_limits.csv").read_text().splitlines()
     sweep = (run / "stress_sweep.csv").read_text().splitlines()
     assert len(limits) == 3 and len(sweep) == 1 + 2 * len(stress.SWEEP_K)
-    out = capsys.readouterr().out
     assert "energy is < 10000 E0" in out and "F = 10000 because" in out
     assert "artificial_damping:" in out and str(run) in out
+
+
+def test_quick_run_is_an_ordinary_stored_run(quick_run):
+    """results.csv: one row per limit (err_max = |measured - theory| in y, within the bound
+    `agrees` uses) and per sweep run (status from the failure label), KEY unique, and a
+    stored definition for every variant."""
+    run, _ = quick_run
+    table = load_results(run)
+    assert len(table) == 2 + 2 * len(stress.SWEEP_K) and not table.duplicated(KEY).any()
+    limits = table[table.variant == "stability_limit"].set_index("integrator")
+    se, ie = limits.loc["symplectic_euler"], limits.loc["implicit_euler"]
+    assert se.err_max == abs(se.measured - 2.0) and se.err_max <= se.tolerance
+    assert se.tolerance == pytest.approx(se.resolution + stress.QUICK_TOL * 2.0)
+    assert ie.measured == math.inf and ie.err_max == 0.0 and ie.tolerance == 0.0
+    assert limits.within_tol.tolist() == [True, True] and set(limits.status) == {"ok"}
+    assert limits.dt.isna().all()
+    sweep = table[table.variant != "stability_limit"]
+    assert ((sweep.status == "ok") == (sweep.failure == "none")).all()
+    damped = sweep[sweep.failure == "artificial_damping"]
+    assert len(damped) and set(damped.status) == {"diverged"}
+    assert damped.reason.str.startswith("artificial_damping").all()
+    assert np.array_equal(sweep.energy_drift, (sweep.energy_ratio - 1).abs(), equal_nan=True)
+    definitions = {d["variant"]: d for d in load_definitions_list(run)}
+    assert set(definitions) == set(table.variant)
+    assert all(d["units"] == "y = omega dt" and d["order_meaningful"] is False
+               and d["figures"] == [] for d in definitions.values())
+
+
+def test_report_and_compare_read_the_stress_run(quick_run, tmp_path):
+    run, _ = quick_run
+    md, _ = write_report(run, out=tmp_path)
+    text = md.read_text()
+    assert "## stiff_spring / stability_limit" in text and "| inf | inf |" in text
+    assert "artificial_damping" in text and "Recommendation" not in text
+    a = open_run("RUN_A", run)
+    result = compare_runs(a, a, judge_time=False)
+    assert len(result.compared) == len(a.rows) and result.regressions.empty
+    assert result.refused.empty
+
+
+def test_stored_limit_of_a_failed_search_and_sweep_labels():
+    opts = {"criterion": Criterion(100), "tol": 1e-3, "span": 0.5}
+    failed = {"engine": "x", "integrator": "rk4", "measured": math.nan, "theory": 2.0,
+              "finite_time": 2.0, "resolution": 1e-3, "agrees": False,
+              "note": "error: RuntimeError: boom"}
+    row = stress_store.limit_row(failed, opts, "probe", "r", {})
+    assert row["status"] == "failed" and row["reason"] == "RuntimeError: boom"
+    assert math.isnan(row["err_max"]) and row["within_tol"] is False
+    no_theory, why = stress_store.limit_tolerance(math.nan, math.nan, 1e-3)
+    assert math.isnan(no_theory) and why.startswith("no tolerance")
+    assert stress_store.limit_error(1.5, math.inf) == math.inf
+    assert stress_store.sweep_status("none", "", None) == ("ok", "")
+    assert stress_store.sweep_status("error", "ValueError: x", None) == (
+        "failed", "ValueError: x")
+    assert stress_store.sweep_status("nan_inf", "non-finite state", 7) == (
+        "diverged", "nan_inf at step 7: non-finite state")
+    assert [stress_store.sweep_variant(k) for k in (1e4, 2.5e3)] == ["k=1e4", "k=2500"]
 
 
 @pytest.mark.parametrize("argv, name", [
