@@ -9,7 +9,7 @@ declares its own in its metadata, as pytest plugins declare `pytest11`:
     [project.entry-points."refsim.cases"]
     my_case = "my_pkg.cases:CASE"                 # a Case instance
     [project.entry-points."refsim.benches"]
-    my_bench = "my_pkg.bench:main"                # main(quick: bool) -> exit code
+    my_bench = "my_pkg.bench:main"                # main(quick) -> list of figure dicts
 
 refsim's own engines and cases are declared the same way in its pyproject. `register` adds
 one at run time (a test's engine class); it never replaces a name already known. Targets are
