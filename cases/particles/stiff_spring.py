@@ -10,6 +10,8 @@ u(t) = x(t) - L0 is, from u(0) = A, u'(0) = v0:
 Observable: `displacement` u (m). Energy m u'^2/2 + k u^2/2; with damping the reference energy is
 the closed form's, so `energy_drift` is the integrator's error, scaled by E0 = k A^2 / 2.
 Time steps are set by y = w0 dt, so the sweep means the same thing at every stiffness.
+Source: the damped harmonic oscillator's closed forms (e.g. J. R. Taylor, Classical Mechanics,
+2005, sec. 5.4, damped oscillations).
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """A home-grown engine as a user would write it: point masses under gravity and linear springs,
 in numpy, behind refsim's `Engine`/`Sim` contract. Not part of refsim; the tolerance suite
-(tests/test_example_engine.py) checks it on its own physics.
+(tests/harness/test_example_engine.py) checks it on its own physics.
 
 Forces: uniform gravity m g, and per spring -k (|d| - L0) u - c (dv . u) u with d the vector
 from the other end (a fixed anchor, or body `other`) to `body`, u = d / |d|; equal and opposite

@@ -1,4 +1,4 @@
-"""The tolerance suite on a home-grown engine (tests/example_engine.py): it passes on honest
+"""The tolerance suite on a home-grown engine (tests/harness/example_engine.py): it passes on honest
 physics, fails on a wrong stepper, and the plugin's marker gives the same tests."""
 import pytest
 

@@ -6,6 +6,8 @@ x(t) = x0 + v_inf t + (v0 - v_inf) tau (1 - e^{-t/tau}).
 Observable: `position` (m, the 3-vector; error is its Euclidean norm). Energy: m |v|^2/2 - m g.x
 (drag removes energy: the reference energy is the closed form's, so `energy_drift` measures the
 integrator, not the physics).
+Source: Newton's second law with a force linear in v, integrated in closed form (e.g. J. R.
+Taylor, Classical Mechanics, 2005, sec. 2.2, linear air resistance).
 """
 from __future__ import annotations
 

@@ -25,7 +25,7 @@ def test_order_conditions(name):
     """The stability polynomial matches exp(z) through z^p: sum b A^(k-1) 1 = 1/k! (k <= p),
     the conditions any method of order p must meet on linear problems."""
     tab = TABLEAUX[name]
-    a, b, c = tab.arrays()
+    a, b, _ = tab.arrays()
     term = np.ones(len(b))
     for k in range(1, tab.order + 1):
         assert b @ term == pytest.approx(1.0 / np.prod(np.arange(1, k + 1)), rel=1e-13)

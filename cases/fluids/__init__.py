@@ -1,0 +1,2 @@
+"""Fluid cases: SPH water in a tank (one scenario per module; shared tank helpers in
+`_sph_tank`)."""

@@ -1,0 +1,1 @@
+"""Particle cases: point masses under gravity, springs and rods (one scenario per module)."""

@@ -1,0 +1,89 @@
+"""Every time stepper of the course slides, each declaring its order and family.
+
+One module per family: `tableaux` (Butcher tableaux as data) and `explicit_rk` (the one
+stepper that runs them), `adaptive` (Dormand-Prince with error control), `symplectic`
+(symplectic Euler, Stormer-Verlet, velocity Verlet, leapfrog), `implicit` (implicit Euler,
+Baraff-Witkin). `base` holds the contract every stepper follows (read it before writing one)
+and the configuration-update hook: a system may define `shift(x, dx)` (jax-md's `shift_fn`,
+e.g. the exponential map of the unit quaternions) and every stepper then moves x through it.
+
+`get_integrator(spec)` builds one by name: 'rk4', 'rk2:0.5' (alpha), 'dopri5_adaptive:1e-8'.
+"""
+from __future__ import annotations
+
+from .adaptive import AdaptiveDormandPrince
+from .base import Integrator, StepFailure, configuration_update
+from .explicit_rk import ExplicitRK
+from .implicit import BaraffWitkin, ImplicitEuler
+from .symplectic import (
+    Leapfrog,
+    StormerVerlet,
+    SymplecticEulerDK,
+    SymplecticEulerKD,
+    VelocityVerlet,
+)
+from .tableaux import DOPRI5, EULER, HEUN, MIDPOINT, RK4, Tableau, rk2_tableau
+
+__all__ = [
+    "DOPRI5",
+    "EULER",
+    "HEUN",
+    "INTEGRATORS",
+    "MIDPOINT",
+    "PARAMETRISED",
+    "RK4",
+    "AdaptiveDormandPrince",
+    "BaraffWitkin",
+    "ExplicitRK",
+    "ImplicitEuler",
+    "Integrator",
+    "Leapfrog",
+    "StepFailure",
+    "StormerVerlet",
+    "SymplecticEulerDK",
+    "SymplecticEulerKD",
+    "Tableau",
+    "VelocityVerlet",
+    "configuration_update",
+    "get_integrator",
+    "rk2_tableau",
+]
+
+_FACTORIES = {
+    "explicit_euler": lambda: ExplicitRK("explicit_euler", EULER),
+    "implicit_euler": ImplicitEuler,
+    "symplectic_euler": SymplecticEulerKD,
+    "symplectic_euler_dk": SymplecticEulerDK,
+    "midpoint": lambda: ExplicitRK("midpoint", MIDPOINT),
+    "heun": lambda: ExplicitRK("heun", HEUN),
+    "rk2": lambda: ExplicitRK("rk2", rk2_tableau(2.0 / 3.0)),
+    "rk4": lambda: ExplicitRK("rk4", RK4),
+    "dopri5": lambda: ExplicitRK("dopri5", DOPRI5),
+    "dopri5_adaptive": AdaptiveDormandPrince,
+    "stormer_verlet": StormerVerlet,
+    "velocity_verlet": VelocityVerlet,
+    "leapfrog": Leapfrog,
+    "baraff_witkin": BaraffWitkin,
+}
+INTEGRATORS = tuple(_FACTORIES)
+PARAMETRISED = {"rk2": "alpha in (0, 1], default 2/3 (Ralston)",
+                "dopri5_adaptive": "rtol > 0, default 1e-9 (atol = rtol * 1e-3)"}
+
+
+def get_integrator(spec: str) -> Integrator:
+    """'rk4', 'rk2:0.5' (alpha), 'dopri5_adaptive:1e-8' (rtol)."""
+    name, _, arg = str(spec).partition(":")
+    if name not in _FACTORIES:
+        raise ValueError(f"integrator must be one of {list(_FACTORIES)}, got {spec!r}")
+    if not arg:
+        return _FACTORIES[name]()
+    if name not in PARAMETRISED:
+        raise ValueError(f"integrator {name!r} takes no parameter, got {spec!r}")
+    try:
+        value = float(arg)
+    except ValueError:
+        raise ValueError(f"integrator {name} parameter: {PARAMETRISED[name]}; "
+                         f"got {arg!r}") from None
+    if name == "rk2":
+        return ExplicitRK(f"rk2:{value:g}", rk2_tableau(value))
+    return AdaptiveDormandPrince(rtol=value, atol=value * 1e-3)
