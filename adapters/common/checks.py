@@ -10,7 +10,7 @@ import numpy as np
 
 def walls_without_contact(scene, who: str, why: str = "") -> str | None:
     """Walls with nothing to say how bodies bounce off them (no scene.contact)."""
-    if scene.walls and scene.contact is None:
+    if len(scene.wall_set) and scene.contact is None:
         return f"{who}: walls need a contact model (scene.contact){why}"
     return None
 
@@ -42,24 +42,24 @@ def spheres_without_inertia(scene, who: str, friction_only: bool = False,
 
 def rods_per_body(scene, who: str, every_body: bool = False, why: str = "") -> str | None:
     """A body carrying two rods; with `every_body`, also a body carrying none."""
-    rodded = [joint.body for joint in scene.joints]
-    distinct = set(rodded)
-    if len(distinct) != len(rodded) or (every_body and len(distinct) != len(scene.bodies)):
+    rodded = scene.joint_set.body
+    distinct = np.unique(rodded)
+    if len(distinct) != len(rodded) or (every_body and len(distinct) != len(scene.particles)):
         return f"{who}: {'exactly ' if every_body else ''}one rod per body{why}"
     return None
 
 
 def body_to_body_springs(scene, who: str, why: str = "") -> str | None:
     """A spring between two bodies (the engine models springs to fixed anchors only)."""
-    if any(spring.other is not None for spring in scene.springs):
+    if np.any(scene.spring_set.other >= 0):  # -1: the spring ends at its anchor
         return f"{who}: springs between two bodies are not modelled{why}"
     return None
 
 
 def springs_on_rod_bodies(scene, who: str, why: str = "") -> str | None:
     """A spring with an end on a body that also carries a rod."""
-    rodded = {joint.body for joint in scene.joints}
-    if any(s.body in rodded or s.other in rodded for s in scene.springs):
+    springs, rodded = scene.spring_set, scene.joint_set.body
+    if np.any(np.isin(springs.body, rodded) | np.isin(springs.other, rodded)):
         return f"{who}: springs on a rod's body are not modelled{why}"
     return None
 

@@ -1,17 +1,8 @@
-"""Contact scene data in the form engines take: wall arrays and per-shape coefficients."""
+"""Contact materials in the form engines take. (Wall points and normals need no translation:
+`scene.wall_set.point` / `.normal` are the (n_walls, 3) arrays every engine reads.)"""
 from __future__ import annotations
 
 import math
-
-import numpy as np
-
-
-def wall_arrays(walls) -> tuple[np.ndarray, np.ndarray]:
-    """(points, normals), each (n_walls, 3) float64; (0, 3) without walls. The normals are the
-    scene's unit normals pointing into free space."""
-    points = np.array([wall.point for wall in walls]).reshape(-1, 3)
-    normals = np.array([wall.normal for wall in walls]).reshape(-1, 3)
-    return points, normals
 
 
 def per_shape_coefficients(contact) -> tuple[float, float]:

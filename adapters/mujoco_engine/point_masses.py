@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from ..common.checks import body_to_body_springs
-from ..common.hinges import hinge_rate, rod_start_mismatch
+from ..common.hinges import rod_start_refusal
 from .body_plan import BodyPlan
 
 POINT_INERTIA = 1e-12  # kg m^2: ENGINE_NOTES (1e-12 clean, 1e-9 a 1e-8 error under RK4)
@@ -21,6 +21,9 @@ def point_mass_plans(scene) -> list[BodyPlan]:
     """One plan per body: a hinge for a rod body, a slide for a spring body, else 3 slides."""
     springs = _springs_by_body(scene)
     joints = _joints_by_body(scene, springs)
+    reason = rod_start_refusal(scene, WHO)
+    if reason:
+        raise ValueError(reason)
     plans = []
     for i, body in enumerate(scene.bodies):
         if i in joints:
@@ -57,14 +60,14 @@ def _joints_by_body(scene, springs) -> dict:
 
 
 def _hinge_plan(scene, i, body, joint) -> BodyPlan:
-    """Hinge through the anchor; qpos = 0 is the initial pose, qvel the initial rate."""
-    reason = rod_start_mismatch(body, joint, WHO)
-    if reason:
-        raise ValueError(reason)
+    """Hinge through the anchor; qpos = 0 is the initial pose, qvel the initial rate (the
+    start geometry was checked by rod_start_refusal)."""
     r0 = np.subtract(body.position, joint.anchor)
-    return BodyPlan("hinge", i, body.mass, body.position, axis=tuple(np.asarray(joint.axis)),
-                    joint_pos=tuple(-r0), damping=scene.linear_drag * joint.length ** 2,
-                    qvel0=(hinge_rate(body, joint),))
+    axis, length = np.asarray(joint.axis), joint.length
+    omega = float(np.cross(r0, body.velocity) @ axis) / length ** 2
+    return BodyPlan("hinge", i, body.mass, body.position, axis=tuple(axis),
+                    joint_pos=tuple(-r0), damping=scene.linear_drag * length ** 2,
+                    qvel0=(omega,))
 
 
 def _spring_plan(scene, i, body, spring) -> BodyPlan:

@@ -30,7 +30,6 @@ import numpy as np
 
 from ..common.checks import (linear_drag, non_sphere_bodies, spheres_without_inertia,
                              walls_without_contact)
-from ..common.contacts import wall_arrays
 from .body_plan import BodyPlan
 from .contact_params import (CONTACT_STEPS, IMPEDANCE, MAX_FRICTION_SPHERES,
                              SOLVER_ITERATIONS, SOLVER_TOLERANCE, VARIANT_NOTES,
@@ -85,8 +84,8 @@ class ContactSetup:
     """Contact parameters of one sphere scene at one dt and integrator."""
 
     nbody: int
-    wall_points: np.ndarray  # (n_walls, 3), adapters.common.contacts.wall_arrays
-    wall_normals: np.ndarray  # (n_walls, 3) unit, into free space
+    wall_points: np.ndarray  # (n_walls, 3): scene.wall_set.point
+    wall_normals: np.ndarray  # (n_walls, 3) unit, into free space: scene.wall_set.normal
     restitution_map: RestitutionMap
     friction: float
     friction_damping: float
@@ -100,7 +99,7 @@ class ContactSetup:
     def make(cls, scene, dt, integrator, variant):
         rmap = restitution_map(scene.contact.restitution, dt, integrator, IMPEDANCE[variant])
         mu = scene.contact.friction
-        return cls(len(scene.bodies), *wall_arrays(scene.walls), rmap,
+        return cls(len(scene.bodies), scene.wall_set.point, scene.wall_set.normal, rmap,
                    mu, friction_damping(dt) if mu > 0 else 0.0, variant)
 
     @property

@@ -17,8 +17,6 @@ import numpy as np
 from refsim.engine import Sim
 from refsim.models import collisions as col
 
-from ..common.contacts import wall_arrays
-
 CONTACT_VARIANTS = ("discrete", "continuous", "hard_sphere_seed")
 
 
@@ -36,7 +34,7 @@ class ContactSim(Sim):
         self.inv_i = np.divide(1.0, inertia, out=np.zeros_like(inertia), where=inertia > 0)
         self.g = np.asarray(scene.gravity)
         self.e, self.mu = scene.contact.restitution, scene.contact.friction
-        self.wall_p, self.wall_n = wall_arrays(scene.walls)
+        self.wall_p, self.wall_n = scene.wall_set.point, scene.wall_set.normal  # read-only
         self.wall_impulse = np.zeros(3)
         self._step = {"discrete": self._discrete, "continuous": self._continuous,
                       "hard_sphere_seed": self._seed}[variant]

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..common.contacts import wall_arrays
 from .particles import force_stages, particle_pack
 from .runtime import to_ndarray
 from .sim import KernelSim
@@ -52,7 +51,7 @@ class SphereSim(KernelSim):
         """Per-sphere data (radius, 1/I from the scene: never recomputed), walls (one dummy
         when none), grid and contact-list scratch, wall impulse and counters."""
         n, walls = len(scene.bodies), scene.walls
-        wall_point, wall_normal = wall_arrays(walls)
+        wall_point, wall_normal = scene.wall_set.point, scene.wall_set.normal
         inertia = scene.inertias
         cells, cap = CELLS_PER_SPHERE * n + 64, CONTACTS_PER_SPHERE * n + 64
         arrays = {"radius": scene.radii,

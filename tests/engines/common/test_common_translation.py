@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 
 from adapters.common import checks
-from adapters.common.contacts import per_shape_coefficients, wall_arrays
-from adapters.common.hinges import (HingeFrames, hinge_rate, rod_length_errors,
-                                    rod_start_refusal)
+from adapters.common.contacts import per_shape_coefficients
+from adapters.common.hinges import HingeFrames, rod_length_errors, rod_start_refusal
 from adapters.common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                          plane_gravity, wall_particles)
 from refsim.models.sph import tait_pressure
@@ -102,16 +101,13 @@ def test_rod_start_accepts_a_rotation_about_the_axis_and_refuses_the_rest():
         "(distance 1.5 m, rod length 1 m)")
     off_plane = Scene(bodies=(bob((0.8, 0.6, 0.0)),), joints=(ROD,), gravity=G)
     assert "perpendicular to the hinge axis" in rod_start_refusal(off_plane, "x")
+    second_off = Scene(bodies=(bob(), bob((0.0, 0.0, -3.0))), gravity=G,
+                       joints=(ROD, Joint(body=1, anchor=(0.0, 0.0, -1.0), length=1.0)))
+    assert rod_start_refusal(second_off, "x").startswith("x: body 1 must start at distance L")
     for velocity in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)):  # radial, along the axis
         off_arc = Scene(bodies=(bob(velocity=velocity),), joints=(ROD,), gravity=G)
         assert rod_start_refusal(off_arc, "x") == \
             "x: body 0's initial velocity must be a rotation about the hinge axis"
-
-
-def test_hinge_rate_is_the_angular_velocity_about_the_axis():
-    # v = w axis x r: w = 3 rad/s about +y at r = (2, 0, 0) is v = (0, 0, -6)
-    joint = Joint(body=0, anchor=(0.0, 0.0, 0.0), length=2.0)
-    assert hinge_rate(bob((2.0, 0.0, 0.0), (0.0, 0.0, -6.0)), joint) == 3.0
 
 
 def test_hinge_frames_hang_theta_zero_along_gravity_and_round_trip_the_start():
@@ -142,15 +138,6 @@ def test_rod_length_errors_are_distance_minus_length_per_rod():
 
 
 # -- contacts ------------------------------------------------------------------------------------
-def test_wall_arrays_stack_points_and_unit_normals():
-    walls = (Wall(point=(0, 0, 0), normal=(0, 0, 2)), Wall(point=(1, 0, 0), normal=(-1, 0, 0)))
-    points, normals = wall_arrays(walls)
-    np.testing.assert_array_equal(points, [[0, 0, 0], [1, 0, 0]])
-    np.testing.assert_array_equal(normals, [[0, 0, 1], [-1, 0, 0]])
-    empty_points, empty_normals = wall_arrays(())
-    assert empty_points.shape == empty_normals.shape == (0, 3)
-
-
 @pytest.mark.parametrize("e, mu", [(1.0, 0.0), (0.5, 0.3), (0.9, 1.2)])
 def test_per_shape_coefficients_multiply_back_to_e_and_mu(e, mu):
     sqrt_e, sqrt_mu = per_shape_coefficients(ContactModel(restitution=e, friction=mu))
