@@ -19,7 +19,7 @@ TARGET = 1e-8
 DURATION, SAMPLE = 10.0, 0.01
 W0 = np.sqrt(9.81)
 THETA0 = 1.0
-BOX_CASE = "colliding_spheres"  # the case with the box_100 variant (N spheres in a box)
+BOX_CASE = "sphere_box"  # N spheres in a closed box (variant box_100, n_spheres set here)
 
 
 def best_time(fn, repeats=5):

@@ -149,7 +149,12 @@ class Case:
         return self.bodies(p) * self.t_end(p) / dt
 
     def source_hash(self) -> str:
-        source = inspect.getsource(inspect.getmodule(type(self)))
+        """Hash of the source of every module the case's class is built from (its own and its
+        base classes' outside refsim.case, e.g. a shared cases/contacts/_impact.py), so that an
+        edit to a shared helper module changes the hash of every case using it."""
+        modules = dict.fromkeys(inspect.getmodule(k) for k in type(self).__mro__
+                                if k.__module__ not in (__name__, "builtins"))
+        source = "".join(inspect.getsource(m) for m in modules if m is not None)
         return hashlib.sha256(source.encode()).hexdigest()[:16]
 
     order_meaningful = True  # a convergence order in dt means something for this case
@@ -222,6 +227,8 @@ def order_tolerance(scale: float, omega_t: float, y: float, order: int,
 
 
 def is_symplectic(settings) -> bool:
-    """The engine's own declaration of its stepper (Sim.settings()["integrator"])."""
-    described = (settings or {}).get("integrator", {})
-    return bool(isinstance(described, dict) and described.get("symplectic", False))
+    """The engine's own declaration of its stepper (Sim.settings()["integrator"], read as an
+    IntegratorInfo)."""
+    from refsim.engine import IntegratorInfo
+    described = IntegratorInfo.of(settings)
+    return bool(described is not None and described.symplectic)

@@ -70,8 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "default: inhouse, the in-house engine on one core)")
     bench.add_argument("name", nargs="?", default="inhouse", help="bench name (refsim list)")
     bench.add_argument("--quick", action="store_true", help="smaller batch, fewer repeats")
-    bench.add_argument("--sph", action="store_true", help="the same as `refsim bench sph`: "
-                       "dam-break SPH throughput, numpy and taichi side by side")
+    bench.add_argument("--sph", action="store_true", help="the same as `refsim bench sph` "
+                       "(kept for earlier command lines)")
     for name, text in SUBCOMMANDS.items():
         module = importlib.import_module(f"refsim.{name}")
         module.add_arguments(sub.add_parser(name, help=text))

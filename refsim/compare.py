@@ -156,6 +156,8 @@ def compare_runs(a: Run, b: Run, error_threshold=DEFAULT_ERROR_THRESHOLD,
             refused.append({**dict(zip(KEY, key)), "reason": why})
             continue
         d = a.definitions.get(case_a, variant_a, ra.get("params", "{}"))
+        if d.get("missing"):  # A's case is gone (renamed): the definition B ran it with
+            d = b.definitions.get(rb["case"], rb["variant"], rb.get("params", "{}"))
         verdict = judge(ra, rb, error_threshold, time_threshold, judge_time, d)
         if note:
             verdict["reasons"] = "; ".join(r for r in (verdict["reasons"], note) if r)

@@ -21,12 +21,20 @@ subclass writes only the engine's own work. Contract for an implementer:
    "integrator" an `IntegratorInfo` (or its dict): the order and symplecticity tolerances read.
 A subclass may still override `step` and `observe` whole (a third-party engine written against
 the first contract): then it keeps its own time and failure bookkeeping.
+
+Model groups (new files only): a module in the engine package's `groups/` subpackage that
+defines `MODEL_GROUP = ModelGroup(...)` adds a model group to the engine with no edit to it.
+For a scene the group `claims`, `supports`, `variants` and `build` go to the group (after the
+base's dimension and integrator checks); other scenes go to the engine's own `_supports`,
+`variants` and `_build`. Group modules import the engine's package lazily, like adapters.
 """
 from __future__ import annotations
 
 import importlib
 import math
-from dataclasses import asdict, dataclass, is_dataclass
+import pkgutil
+from dataclasses import asdict, dataclass, field, is_dataclass
+from typing import Callable
 
 
 class EngineFailure(RuntimeError):
@@ -53,6 +61,33 @@ class IntegratorInfo:
                        bool(described.get("symplectic", False)),
                        bool(described.get("implicit", False)))
         return None
+
+
+@dataclass(frozen=True)
+class ContactInfo:
+    """What contact tolerances read of an engine's settings: the contact model ("impulse":
+    Newton restitution at the impact; "soft": a spring-damper whose restitution comes from a
+    damping ratio), the detection ("discrete" at the end of a step, or "continuous"), the
+    soft contact's calibration residual |e_obtained - e| and its contact duration (s)."""
+
+    model: str = "impulse"
+    detection: str = "discrete"
+    restitution_residual: float = 0.0
+    duration_s: float = 0.0
+
+    @classmethod
+    def of(cls, settings) -> "ContactInfo":
+        """From an engine's settings dict (keys contact_model, detection, restitution_mapping
+        .residual_max, contact_duration_s); the defaults where absent."""
+        s = settings if isinstance(settings, dict) else {}
+        mapping = s.get("restitution_mapping", {})
+        residual = mapping.get("residual_max", 0.0) if isinstance(mapping, dict) else 0.0
+        return cls(str(s.get("contact_model", "impulse")), str(s.get("detection", "discrete")),
+                   float(residual), float(s.get("contact_duration_s", 0.0)))
+
+    @property
+    def soft(self) -> bool:
+        return self.model == "soft"
 
 
 def jsonable(value):
@@ -106,6 +141,52 @@ class Sim:
         """Release engine resources (connections, kernels)."""
 
 
+def _claims_nothing(scene) -> bool:
+    return False
+
+
+@dataclass(frozen=True)
+class ModelGroup:
+    """One model group of an engine, declared as MODEL_GROUP in adapters/<engine>/groups/<x>.py.
+
+    name: the group (e.g. "rigid"); claims(scene): whether this group runs the scene (e.g. it
+    holds rigid bodies); parts / features: the scene part kinds and features it simulates;
+    build(engine, scene, dt, integrator, variant) -> Sim; supports(engine, scene, integrator)
+    -> None or the reason; variants(engine, scene) -> formulations (default ("",));
+    integrators: the names it offers (None: the engine's)."""
+
+    name: str
+    build: Callable
+    claims: Callable = _claims_nothing
+    parts: frozenset = frozenset()
+    features: frozenset = frozenset()
+    supports: Callable | None = None
+    variants: Callable | None = None
+    integrators: tuple | None = None
+    module: str = field(default="", compare=False)
+
+
+def discover_groups(engine_cls) -> tuple[ModelGroup, ...]:
+    """MODEL_GROUP of every module in the `groups` subpackage of the engine class's package
+    (none when there is no such subpackage), in module-name order."""
+    package = engine_cls.__module__.rpartition(".")[0]
+    try:
+        groups_pkg = importlib.import_module(f"{package}.groups") if package else None
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{package}.groups":
+            raise
+        return ()
+    if groups_pkg is None:
+        return ()
+    out = []
+    for info in sorted(pkgutil.iter_modules(groups_pkg.__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"{groups_pkg.__name__}.{info.name}")
+        group = getattr(module, "MODEL_GROUP", None)
+        if isinstance(group, ModelGroup):
+            out.append(ModelGroup(**{**group.__dict__, "module": module.__name__}))
+    return tuple(out)
+
+
 class Engine:
     name = "engine"
     package: str | None = None  # the Python package the engine needs
@@ -135,19 +216,42 @@ class Engine:
         except Exception:
             return "unknown"
 
+    # -- model groups -----------------------------------------------------------------------
+    @classmethod
+    def model_groups(cls) -> tuple[ModelGroup, ...]:
+        if "_groups" not in cls.__dict__:
+            cls._groups = discover_groups(cls)
+        return cls._groups
+
+    def group_for(self, scene) -> ModelGroup | None:
+        """The model group (groups/ modules) that runs `scene`, None for the engine's own."""
+        return next((g for g in self.model_groups() if g.claims(scene)), None)
+
+    def offered_integrators(self, scene=None) -> tuple:
+        group = self.group_for(scene) if scene is not None else None
+        return group.integrators if group is not None and group.integrators is not None \
+            else self.integrators
+
+    # -- support ------------------------------------------------------------------------------
     def supports(self, scene, integrator: str | None = None) -> str | None:
+        group = self.group_for(scene)
+        parts = group.parts if group is not None else self.parts
+        features = group.features if group is not None else self.capabilities
         kinds = getattr(scene, "part_kinds", None)
-        if self.parts is not None and kinds is not None:
-            missing = sorted(kinds() - set(self.parts))
+        if parts is not None and kinds is not None:
+            missing = sorted(kinds() - set(parts))
             if missing:
                 return f"{self.name} does not simulate {', '.join(missing)}"
-        missing = sorted(scene.features() - set(self.capabilities))
+        missing = sorted(scene.features() - set(features))
         if missing:
             return f"{self.name} does not simulate {', '.join(missing)}"
         if scene.dim not in self.dims:
             return f"{self.name} is {'/'.join(map(str, self.dims))}D only"
-        if integrator is not None and integrator.partition(":")[0] not in self.integrators:
+        offered = self.offered_integrators(scene)
+        if integrator is not None and integrator.partition(":")[0] not in offered:
             return f"{self.name} offers no integrator {integrator!r}"
+        if group is not None:
+            return group.supports(self, scene, integrator) if group.supports else None
         return self._supports(scene, integrator)
 
     def _supports(self, scene, integrator: str | None) -> str | None:
@@ -157,17 +261,27 @@ class Engine:
     def variants(self, scene) -> tuple[str, ...]:
         return ("",)
 
+    def formulations(self, scene) -> tuple[str, ...]:
+        """The scene's formulations: its model group's, else the engine's `variants`."""
+        group = self.group_for(scene)
+        if group is not None:
+            return group.variants(self, scene) if group.variants else ("",)
+        return self.variants(scene)
+
     def build(self, scene, dt: float, integrator: str, variant: str = "") -> Sim:
         dt = float(dt)
         if not math.isfinite(dt) or dt <= 0:
             raise ValueError(f"dt must be a finite number > 0, got {dt}")
-        forms = self.variants(scene)
+        forms = self.formulations(scene)
         if variant not in forms:
             raise ValueError(f"{self.name} variant must be one of {list(forms)}, got "
                              f"{variant!r}")
         reason = self.supports(scene, integrator)
         if reason is not None:
             raise ValueError(reason)
+        group = self.group_for(scene)
+        if group is not None:
+            return group.build(self, scene, dt, integrator, variant)
         return self._build(scene, dt, integrator, variant)
 
     def _build(self, scene, dt: float, integrator: str, variant: str) -> Sim:

@@ -49,6 +49,7 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
     dts = [check_dt(d) for d in dts] if dts else None
     if integrators:
         offered = {i for e in engines for i in e.integrators}
+        offered |= {i for e in engines for g in e.model_groups() for i in g.integrators or ()}
         for spec in integrators:
             if spec.partition(":")[0] in INTEGRATORS:
                 get_integrator(spec)  # validates a parameter such as rk2:alpha
@@ -88,12 +89,13 @@ def _variants(case, variants, quick):
 def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep):
     if not engine.available() or engine.supports(scene) is not None:
         return [Job(cname, variant, engine.name, "", "", float("nan"))]
-    specs = [i for i in (integrators or engine.integrators) if i.partition(":")[0]
-             in engine.integrators and engine.supports(scene, i) is None]
+    offered = engine.offered_integrators(scene)
+    specs = [i for i in (integrators or offered) if i.partition(":")[0]
+             in offered and engine.supports(scene, i) is None]
     if not specs:  # none of the asked integrators runs this scene: one row says why
-        spec = (integrators or engine.integrators)[0]
+        spec = (integrators or offered)[0]
         return [Job(cname, variant, engine.name, "", spec, float("nan"))]
-    forms = engine.variants(scene)
+    forms = engine.formulations(scene)
     return [Job(cname, variant, engine.name, ev, spec, dt)
             for k, ev in enumerate(forms) for spec in specs
             for dt in (sweep if k == 0 else alt_sweep)]

@@ -17,6 +17,7 @@ import numpy as np
 
 from cases.contacts._impact import SPHERE_PARAMS, SingleImpactCase, kinetic_energy
 from refsim.case import Param
+from refsim.engine import ContactInfo
 
 SPHERES = 5
 
@@ -60,9 +61,9 @@ class NewtonsCradle(SingleImpactCase):
         return out
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        settings = settings or {}
-        if settings.get("contact_model", "impulse") == "soft":
-            residual = float(settings.get("restitution_mapping", {}).get("residual_max", 0.0))
+        contact = ContactInfo.of(settings)
+        if contact.soft:
+            residual = contact.restitution_residual
             return 8 * residual + 1e-8, (
                 f"momentum and energy conserved up to the soft contact's restitution error: "
                 f"4 impacts in turn, each carrying the whole energy, each with |e - 1| <= "

@@ -15,9 +15,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.contacts._impact import (SPHERE_PARAMS, kinetic_energy, momentum_drift,
-                                    penetration_max, sphere_scene, state_energy)
+from cases.contacts._impact import (
+    SPHERE_PARAMS,
+    kinetic_energy,
+    momentum_drift,
+    penetration_max,
+    sphere_scene,
+    state_energy,
+)
 from refsim.case import Case, Param
+from refsim.engine import ContactInfo
 from refsim.scene import Wall
 
 
@@ -131,9 +138,9 @@ class SphereBox(Case):
 
     # -- tolerance ---------------------------------------------------------------------------
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        settings = settings or {}
-        duration = float(settings.get("contact_duration_s", 0.0))
-        if settings.get("contact_model", "impulse") == "soft" and duration > 0:
+        contact = ContactInfo.of(settings)
+        duration = contact.duration_s
+        if contact.soft and duration > 0:
             rate = p["speed"] / self.free_path(p)
             return 2 * rate * duration + 1e-6, (
                 f"soft contacts hold kinetic energy while compressed: at most the share of "

@@ -21,6 +21,7 @@ import numpy as np
 
 from cases.contacts._impact import SPHERE_PARAMS, SingleImpactCase
 from refsim.case import Param
+from refsim.engine import ContactInfo
 
 
 class SpherePairs(SingleImpactCase):
@@ -88,15 +89,15 @@ class SpherePairs(SingleImpactCase):
         return v1, w1
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        settings = settings or {}
+        contact = ContactInfo.of(settings)
         v, e = p["speed"], p["restitution"]
-        if settings.get("contact_model", "impulse") == "soft":
+        if contact.soft:
             return 0.1 * (1 + e) * v, (
                 "soft (spring-damper) contact: the restitution obtained from a damping ratio is "
                 "approximate, +9 % to -10 % (ENGINE_NOTES.md), on a velocity change (1+e) v")
         tol, reason = 1e-9 * v, ("impulse contact with Newton's restitution law (and Coulomb "
                                  "stick/slide): the exact outcome to round-off")
-        if settings.get("detection", "discrete") == "discrete" and p["impact"] > 0:
+        if contact.detection == "discrete" and p["impact"] > 0:
             v_rel = 2 * v
             tol += (1 + e) * v_rel * v_rel * dt / p["radius"]
             reason += (f"; plus discrete detection: the pair is found up to one step late, "

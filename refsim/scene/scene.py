@@ -12,6 +12,11 @@ records (`Body`, `Spring`, `Joint`, `Wall`) or as their array part (`Particles`,
 The new parts are given as parts: `rigid` (RigidBodies), `networks` (SpringNetwork, ...),
 `meshes` (TriangleMesh, ...), `grids` (Grid, ...); `fluid` is the SPH `FluidBlock`.
 
+Parts of a kind the core does not know (a plugin's or a new model group's own part, in its own
+module) go in `extra`: any frozen object with a `kind` (a name not in PART_KINDS), `features()`
+and, if it moves, `moving = True`. They count in `parts()`, `part_kinds()` and `features()`
+like the built-in ones, so a new part kind is a new file, not an edit here.
+
 One moving kind: a scene's observed "x"/"v" (refsim.observation) belong to one kind of moving
 bodies, MOVING_KINDS: particles, an SPH fluid, rigid bodies, spring-network nodes or mesh nodes.
 A scene that mixes two of them is rejected. Grids move nothing and go with any kind.
@@ -49,6 +54,22 @@ def _records_and_part(value, part_cls):
     return records, part_cls.from_records(records)
 
 
+def _extra_parts(value) -> tuple:
+    """Parts of kinds the core does not know: each frozen, with a new `kind` and features()."""
+    items = tuple(value) if isinstance(value, (tuple, list)) else (value,)
+    for item in items:
+        kind = getattr(item, "kind", None)
+        if not isinstance(kind, str) or not kind or kind in PART_KINDS:
+            raise ValueError(f"scene.extra parts must each have a `kind` not in {PART_KINDS}, "
+                             f"got {kind!r}")
+        if not callable(getattr(item, "features", None)):
+            raise ValueError(f"scene.extra part {kind!r} must define features()")
+        params = getattr(type(item), "__dataclass_params__", None)
+        if params is None or not params.frozen:
+            raise ValueError(f"scene.extra part {kind!r} must be a frozen dataclass")
+    return items
+
+
 def _tuple_of(name: str, value, part_cls) -> tuple:
     items = (value,) if isinstance(value, part_cls) else tuple(value)
     for item in items:
@@ -75,6 +96,7 @@ class Scene:
     networks: tuple[SpringNetwork, ...] = ()
     meshes: tuple[TriangleMesh, ...] = ()
     grids: tuple[Grid, ...] = ()
+    extra: tuple = ()
     particles: Particles = field(init=False, repr=False, compare=False)
     spring_set: Springs = field(init=False, repr=False, compare=False)
     joint_set: Joints = field(init=False, repr=False, compare=False)
@@ -105,16 +127,19 @@ class Scene:
         _set(self, "meshes", _tuple_of("meshes", self.meshes, TriangleMesh))
         grids = _tuple_of("grids", self.grids, Grid)
         _set(self, "grids", grids)
+        _set(self, "extra", _extra_parts(self.extra))
         names = [name for g in grids for name in g.fields]
         if len(set(names)) != len(names):
             raise ValueError(f"scene.grids field names must be distinct across grids (each is "
                              f"observed as 'grid.<name>'), got {names}")
 
     def _has_new_parts(self) -> bool:
-        return self.rigid is not None or bool(self.networks or self.meshes or self.grids)
+        return self.rigid is not None or bool(self.networks or self.meshes or self.grids
+                                              or self.extra)
 
     def _check_one_moving_kind(self) -> None:
         moving = [k for k in MOVING_KINDS if k in self.part_kinds()]
+        moving += [p.kind for p in self.extra if getattr(p, "moving", False)]
         if len(moving) > 1:
             raise ValueError(f"scene must hold one kind of moving bodies (its observed 'x', "
                              f"'v' belong to it), got {moving}")
@@ -125,7 +150,7 @@ class Scene:
         singles = (self.particles, self.spring_set, self.joint_set, self.wall_set)
         out = [p for p in singles if len(p)]
         out += [p for p in (self.fluid, self.rigid) if p is not None]
-        return tuple(out) + self.networks + self.meshes + self.grids
+        return tuple(out) + self.networks + self.meshes + self.grids + self.extra
 
     def part_kinds(self) -> set[str]:
         """The kinds (of PART_KINDS) of the parts present."""
@@ -134,7 +159,8 @@ class Scene:
     def moving_kind(self) -> str | None:
         """The one kind of moving bodies (of MOVING_KINDS) whose "x", "v" are observed."""
         kinds = self.part_kinds()
-        return next((k for k in MOVING_KINDS if k in kinds), None)
+        extra = [p.kind for p in self.extra if getattr(p, "moving", False)]
+        return next((k for k in MOVING_KINDS if k in kinds), extra[0] if extra else None)
 
     def features(self) -> set[str]:
         """What the scene needs simulated; engines build their step from this only. Scene-wide:

@@ -205,3 +205,33 @@ def test_a_path_that_is_not_a_stored_run_raises(runs, tmp_path):
     (b / "manifest.json").unlink()
     with pytest.raises(ValueError, match="RUN_B must be a stored run directory"):
         run_compare(a, b)
+
+
+def test_rename_maps_a_reorganised_case_row_for_row(runs, capsys):
+    a, b = runs
+    edit_rows(a, {"case": "free_fall"}, case="old_fall")
+    edit_manifest(a, lambda m: m["case_hashes"].update(old_fall=m["case_hashes"]["free_fall"]))
+    assert run_compare(a, b) == 0  # nothing of old_fall matches: stiff_spring alone
+    assert "compared 2," in capsys.readouterr().out
+    assert run_compare(a, b, "--rename", "old_fall=free_fall") == 0
+    assert "compared 4, refused 0, only in A 0, only in B 0" in capsys.readouterr().out
+    assert run_compare(a, b, "--rename", "old_fall/default=free_fall/default") == 0
+    assert "compared 4," in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("spec", ["old_fall", "=free_fall", "a/v=b", "a=b/v"])
+def test_rename_must_name_both_sides_alike(spec):
+    with pytest.raises(ValueError, match="--rename must be OLD=NEW"):
+        compare.parse_renames([spec])
+
+
+def test_changed_source_is_refused_unless_allowed_and_then_said(runs):
+    a, b = runs
+    edit_manifest(b, lambda m: m["case_hashes"].update(free_fall="0" * 16))
+    got, result = verdicts(a, b)
+    assert len(result.refused) == 2 and all("case source changed" in r
+                                            for r in result.refused["reason"])
+    got, result = verdicts(a, b, allow_source_change=True)
+    assert result.refused.empty
+    assert all("--allow-source-change" in got[("free_fall", i)][1] for i in (SE, VV))
+    assert got[("stiff_spring", SE)][1] == ""

@@ -1,4 +1,4 @@
-"""MuJoCo adapter on colliding spheres (mujoco 4.0.0): soft contacts with a calibrated
+"""MuJoCo adapter on sphere contacts (mujoco 4.0.0): soft contacts with a calibrated
 restitution, momentum, Newton's cradle, the box of 100, settings and refusals.
 
 MuJoCo has no restitution: contacts are its soft constraints in the direct form
@@ -25,19 +25,25 @@ from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Scene, Wall
 from refsim.testing import accuracy
 
-CASE = "colliding_spheres"
 SE = "symplectic_euler"
 ENGINE = get_engine("mujoco")
 PAIR_SECONDS = 0.5  # the pair meets at 0.4 s; the outcome is compared from 0.45 s
 
 
+def case_of(variant):
+    """Name of the contact case that holds `variant`."""
+    if variant == "cradle":
+        return "newtons_cradle"
+    return "sphere_box" if variant.startswith("box_") else "sphere_pairs"
+
+
 def _case(variant, **over):
-    c = get_case(CASE)
+    c = get_case(case_of(variant))
     return c, c.variant_params(variant, over)
 
 
 def _run(variant, dt=1e-3, engine_variant="", integrator=SE, **over):
-    row = accuracy(CASE, variant, "mujoco", integrator, dt, engine_variant, **over)
+    row = accuracy(case_of(variant), variant, "mujoco", integrator, dt, engine_variant, **over)
     assert row["status"] == "ok", row["reason"]
     return row
 

@@ -1,4 +1,4 @@
-"""pybullet on colliding spheres (refsim issue 4): exact impulse outcomes head-on, the impulse law
+"""pybullet on sphere contacts (refsim issue 4): exact impulse outcomes head-on, the impulse law
 on the overlapped pose for oblique impacts, momentum, the cradle as pybullet solves it, walls,
 the box's energy, settings and refusals.
 
@@ -21,14 +21,22 @@ from refsim.testing import accuracy
 
 ENGINE = get_engine("pybullet")
 SE = "symplectic_euler"
-CASE = get_case("colliding_spheres")
-NAME = "colliding_spheres"
+PAIR_CASE = get_case("sphere_pairs")
+CRADLE_CASE = get_case("newtons_cradle")
+BOX_CASE = get_case("sphere_box")
 HEAD_ON = ("head_on", "head_on_e0.5", "head_on_1to3", "head_on_1to3_e0.5")
 PAIRS = HEAD_ON + ("oblique", "oblique_friction")
 
 
+def case_of(variant):
+    """The contact case that holds `variant`."""
+    if variant == "cradle":
+        return CRADLE_CASE
+    return BOX_CASE if variant.startswith("box_") else PAIR_CASE
+
+
 def _row(variant, dt=1e-3, **params):
-    row = accuracy(NAME, variant, "pybullet", SE, dt, **params)
+    row = accuracy(case_of(variant).name, variant, "pybullet", SE, dt, **params)
     assert row["status"] == "ok", row["reason"]
     return row
 
@@ -85,8 +93,8 @@ def test_oblique_is_the_impulse_law_on_the_overlapped_pose(variant, dt):
     """The engine's outcome is refsim's impulse law (Newton restitution, Coulomb stick/slide,
     `resolve_pairs`) applied with the normal of the pose in which the overlap is first seen,
     to round-off: detection is discrete, the response is exact."""
-    p = CASE.variant_params(variant)
-    scene = CASE.scene(p)
+    p = PAIR_CASE.variant_params(variant)
+    scene = PAIR_CASE.scene(p)
     before, after = _first_impact(scene, dt)
     x, r = before["x"], p["radius"]
     d = x[1] - x[0]
@@ -122,7 +130,7 @@ def test_cradle_moves_the_touching_chain_as_one_body(dt):
     happens (err_max sqrt(1.2) v = 1.095 v). Momentum and energy are conserved (50 iterations
     leave a Gauss-Seidel residual of 5e-10 m/s on the chain; 10 left 1e-2, pybullet's default
     residual threshold 1.7e-4)."""
-    p = CASE.variant_params("cradle")
+    p = CRADLE_CASE.variant_params("cradle")
     row = _row("cradle", dt)
     v, m = p["speed"], p["mass"]
     final = row["trajectory"]["v"][-1]
@@ -131,9 +139,9 @@ def test_cradle_moves_the_touching_chain_as_one_body(dt):
     block[1:, 0] = 2 * m / (5 * m) * v
     np.testing.assert_allclose(final, block, rtol=0, atol=1e-8 * v)
     assert row["momentum_drift"] <= 1e-12
-    energy = CASE.energy(p, row["trajectory"])
+    energy = CRADLE_CASE.energy(p, row["trajectory"])
     assert np.max(np.abs(energy - energy[0])) <= 1e-8 * energy[0]
-    ideal = CASE.outcome(p)[0]
+    ideal = CRADLE_CASE.outcome(p)[0]
     assert row["within_tol"]  # the cradle is judged on conservation, which the block keeps
     assert row["err_max"] == pytest.approx(np.linalg.norm(block - ideal), rel=1e-6)
 
@@ -182,12 +190,12 @@ def test_box_conserves_energy(variant, duration):
     1e-9 allows the 50-iteration residual of simultaneous contacts (5e-10 on the cradle).
     Overlaps are never pushed out (contact ERP 0): the deepest is the last step's approach,
     measured 1.5e-3 m (box_100), within v_rel dt <= 2 sqrt(2 E / m) dt."""
-    p = CASE.variant_params(variant, {"duration": duration})
+    p = BOX_CASE.variant_params(variant, {"duration": duration})
     row = _row(variant, duration=duration)
     assert row["within_tol"], (row["err_max"], row["tolerance"])
     assert row["energy_drift"] <= 1e-9
     assert row["err_max"] <= 1e-9
-    energy = CASE.energy_scale(p)
+    energy = BOX_CASE.energy_scale(p)
     assert 0 < row["penetration_max"] <= 2 * math.sqrt(2 * energy / p["mass"]) * 1e-3
 
 
@@ -212,8 +220,8 @@ def test_build_keeps_the_scene_order_across_batches():
 # 5. Settings and refusals
 # ---------------------------------------------------------------------------------------------
 def test_settings_report_the_contact_model_and_mappings():
-    p = CASE.variant_params("head_on_e0.5", {"friction": 0.36})
-    sim = ENGINE.build(CASE.scene(p), 1e-3, SE)
+    p = PAIR_CASE.variant_params("head_on_e0.5", {"friction": 0.36})
+    sim = ENGINE.build(PAIR_CASE.scene(p), 1e-3, SE)
     s = json.loads(json.dumps(sim.settings()))
     sim.close()
     assert s["contact_model"] == "impulse" and s["detection"] == "discrete"
@@ -234,8 +242,8 @@ def test_settings_report_the_contact_model_and_mappings():
 
 
 def test_observe_has_angular_velocities_and_frictionless_spin_is_kept():
-    p = CASE.variant_params("oblique", {"spin": 5.0})
-    sim = ENGINE.build(CASE.scene(p), 1e-3, SE)
+    p = PAIR_CASE.variant_params("oblique", {"spin": 5.0})
+    sim = ENGINE.build(PAIR_CASE.scene(p), 1e-3, SE)
     sim.step(600)  # through the impact
     o = sim.observe()
     sim.close()
@@ -264,4 +272,4 @@ def test_unsupported_contact_scenes_are_refused(scene, words):
 
 def test_capabilities_include_contacts_and_walls():
     assert {"contacts", "walls"} <= ENGINE.capabilities
-    assert ENGINE.supports(CASE.scene(CASE.variant_params("box_100")), SE) is None
+    assert ENGINE.supports(BOX_CASE.scene(BOX_CASE.variant_params("box_100")), SE) is None

@@ -11,7 +11,7 @@ import numpy as np
 import pymunk  # noqa: F401  (CI must have every engine: fail here, not skip)
 import pytest
 
-from refsim.testing import spring_stable
+from refsim.testing import oscillator_stable
 
 from refsim.registry import get_engine
 from refsim.registry import get_case
@@ -161,7 +161,7 @@ def test_convergence_order_is_one(case, variant, engine_variant, over):
 # 3. stability limit ----------------------------------------------------------------------------
 def _spring_stable(y, energy_factor, periods=200):
     """Finite, and the energy after every step below energy_factor * E0, over `periods`."""
-    return spring_stable("pymunk", DK, y, energy_factor, periods)
+    return oscillator_stable("stiff_spring", "pymunk", DK, y, energy_factor, periods)
 
 
 def test_stability_limit_is_two():

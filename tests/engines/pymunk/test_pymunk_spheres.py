@@ -1,4 +1,4 @@
-"""pymunk adapter on colliding spheres: impulse outcomes, momentum, Newton's cradle, settings.
+"""pymunk adapter on sphere contacts: impulse outcomes, momentum, Newton's cradle, settings.
 
 pymunk (7.3.1, Munk2D 2.0.1) must be installed: a missing engine fails at import, never skips.
 pymunk is 2D: the pair and the cradle stay in the x-z plane and run; the 3D box is refused.
@@ -20,19 +20,25 @@ from refsim.scene import Body, ContactModel, Scene, Wall
 from refsim.testing import accuracy
 
 DK = "symplectic_euler_dk"
-CASE = "colliding_spheres"
 PYMUNK = get_engine("pymunk")
 PAIRS = ["head_on", "head_on_e0.5", "head_on_1to3", "head_on_1to3_e0.5", "oblique",
          "oblique_friction"]
 
 
+def case_of(variant):
+    """Name of the contact case that holds `variant`."""
+    if variant == "cradle":
+        return "newtons_cradle"
+    return "sphere_box" if variant.startswith("box_") else "sphere_pairs"
+
+
 def _params(variant, **over):
-    c = get_case(CASE)
+    c = get_case(case_of(variant))
     return c, c.variant_params(variant, over)
 
 
 def _run(variant, dt=1e-3, **over):
-    return accuracy(CASE, variant, "pymunk", DK, dt, **over)
+    return accuracy(case_of(variant), variant, "pymunk", DK, dt, **over)
 
 
 # 1. post-collision velocities ------------------------------------------------------------------
@@ -90,7 +96,7 @@ def test_impact_helper_reproduces_the_case_outcome():
     of both; the friction variant sticks: slip impulse 3/7 < mu jn = 0.52)."""
     for variant in ("oblique", "oblique_friction", "head_on_1to3_e0.5"):
         c, p = _params(variant)
-        x0, v0, m, w0 = c._initial(p)
+        x0, v0, m, w0 = c.initial_state(p)
         x_c = x0 + v0 * c.contact_time(p)
         v1, w1 = _impact(x_c, v0, w0, m, p["radius"], p["restitution"], p["friction"])
         v_ref, w_ref = c.outcome(p)
@@ -107,7 +113,7 @@ def test_oblique_outcome_is_newton_law_at_the_detected_pose(variant, over, dt):
     overlapping pose it detects (up to one step after contact), with the spin mapped as
     pymunk w = -(refsim w_y). A wrong spin sign misses by 0.81 m/s on the friction variant."""
     c, p = _params(variant, **over)
-    x0, v0, m, w0 = c._initial(p)
+    x0, v0, m, w0 = c.initial_state(p)
     sim = PYMUNK.build(c.scene(p), dt, DK)
     obs = _detection_step(sim, v0)
     v1, w1 = _impact(obs["x"], v0, w0, m, p["radius"], p["restitution"], p["friction"])

@@ -38,7 +38,7 @@ def test_stepper_failure_becomes_failure_and_stops_stepping():
 
 
 @pytest.mark.parametrize("case_name, variant", [("pendulum", "nope"),
-                                                ("colliding_spheres", "generalized")])
+                                                ("sphere_pairs", "generalized")])
 def test_build_refuses_a_variant_the_scene_has_not(case_name, variant):
     case = get_case(case_name)
     p = case.validate()

@@ -7,14 +7,19 @@ from refsim.registry import get_case
 from refsim.models import collisions as col
 from refsim.testing import accuracy
 
-CASE = get_case("colliding_spheres")
+CASE = get_case("sphere_pairs")
 PAIRS = ["head_on", "head_on_e0.5", "head_on_1to3", "head_on_1to3_e0.5", "oblique",
          "oblique_friction"]
 
 
+def case_of(variant):
+    """Name of the contact case that holds `variant`."""
+    return "newtons_cradle" if variant == "cradle" else "sphere_pairs"
+
+
 @pytest.mark.parametrize("variant", PAIRS + ["cradle"])
 def test_continuous_impacts_are_exact(variant):
-    row = accuracy("colliding_spheres", variant, "refsim", "symplectic_euler", 1e-3,
+    row = accuracy(case_of(variant), variant, "refsim", "symplectic_euler", 1e-3,
                    "continuous")
     assert row["status"] == "ok"
     assert row["err_max"] < 1e-12 and row["within_tol"]
@@ -26,7 +31,7 @@ def test_continuous_impacts_are_exact(variant):
 
 @pytest.mark.parametrize("variant", PAIRS)
 def test_discrete_impacts_within_derived_tolerance(variant):
-    row = accuracy("colliding_spheres", variant, "refsim", "symplectic_euler", 1e-3, "discrete")
+    row = accuracy("sphere_pairs", variant, "refsim", "symplectic_euler", 1e-3, "discrete")
     assert row["status"] == "ok" and row["within_tol"], (row["err_max"], row["tolerance"])
     if CASE.variant_params(variant)["impact"] == 0:  # head-on: the normal is exact
         assert row["err_max"] < 1e-12
@@ -43,7 +48,7 @@ def test_head_on_outcomes_match_engine_notes():
 
 
 def test_friction_conserves_momentum_and_angular_momentum_and_dissipates():
-    row = accuracy("colliding_spheres", "oblique_friction", "refsim", "symplectic_euler",
+    row = accuracy("sphere_pairs", "oblique_friction", "refsim", "symplectic_euler",
                    1e-3, "continuous")
     p = CASE.variant_params("oblique_friction")
     traj = row["trajectory"]
@@ -59,7 +64,7 @@ def test_friction_conserves_momentum_and_angular_momentum_and_dissipates():
 
 
 def test_box_momentum_balance_and_energy_over_1e4_steps():
-    row = accuracy("colliding_spheres", "box_100", "refsim", "symplectic_euler", 1e-3,
+    row = accuracy("sphere_box", "box_100", "refsim", "symplectic_euler", 1e-3,
                    "discrete", duration=10.0)
     assert row["status"] == "ok" and row["steps"] == 10_000
     # sphere-sphere impulses are equal and opposite; walls' impulses are accounted for
@@ -96,6 +101,6 @@ def test_hard_sphere_seed_formula_breaks_conservation_as_derived():
         assert np.allclose(m @ v, before, atol=1e-15) == kept
         assert 0.5 * m @ np.sum(v * v, axis=1) != pytest.approx(
             0.5 * m @ np.sum(scene.velocities ** 2, axis=1), rel=1e-6)
-    row = accuracy("colliding_spheres", "head_on_1to3", "refsim", "symplectic_euler", 1e-3,
+    row = accuracy("sphere_pairs", "head_on_1to3", "refsim", "symplectic_euler", 1e-3,
                    "hard_sphere_seed")
     assert not row["within_tol"] and row["momentum_drift"] > 0.1

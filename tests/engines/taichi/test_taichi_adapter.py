@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from refsim.testing import spring_stable
+from refsim.testing import oscillator_stable
 
 from refsim.registry import get_engine
 from adapters.taichi_engine.runtime import import_taichi
@@ -130,7 +130,8 @@ def test_convergence_order(integrator, order, case, variant, over):
 def _spring_stable(integrator, y, energy_factor=1e4, periods=100):
     """Finite, and energy below energy_factor * E0 after every step over `periods`; rest
     length 1e3 m (amplitude 0.1 m) keeps the spring linear however far it swings."""
-    return spring_stable("taichi", integrator, y, energy_factor, periods, rest_length=1e3)
+    return oscillator_stable("stiff_spring", "taichi", integrator, y, energy_factor, periods,
+                             rest_length=1e3)
 
 
 @pytest.mark.parametrize("integrator, theory", [(SE, 2.0), (VV, 2.0), (RK4, 2 * math.sqrt(2))])

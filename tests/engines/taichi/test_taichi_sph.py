@@ -14,19 +14,21 @@ import pytest
 from refsim.registry import get_engine
 from adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
-from cases.dam_break import clock_spread_rms
+from cases.fluids.dam_break import clock_spread_rms
 from refsim.testing import accuracy
 
 VV = "velocity_verlet"
 TAICHI, REFSIM = get_engine("taichi"), get_engine("refsim")
 CASE = get_case("dam_break")
+HYDROSTATIC = get_case("hydrostatic_tank")
 import_taichi()  # CI must have every engine: fail here, not skip
 
 
 def _scene(variant="res20", resolution=10, walls="no_slip", pressure="tension", delta=0.1):
-    p = CASE.variant_params(variant, {"resolution": resolution, "walls": walls,
+    case = HYDROSTATIC if variant == "hydrostatic" else CASE
+    p = case.variant_params(variant, {"resolution": resolution, "walls": walls,
                                       "pressure": pressure, "delta": delta})
-    return p, CASE.scene(p), CASE.reference_dt(p)
+    return p, case.scene(p), case.reference_dt(p)
 
 
 def _differences(a, b):
@@ -67,7 +69,7 @@ def test_agrees_with_refsim_numpy_engine_to_round_off(walls, pressure):
 
 def test_hydrostatic_tank_settles_to_rho_g_h():
     p, scene, dt = _scene("hydrostatic")
-    row = accuracy("dam_break", "hydrostatic", "taichi", VV, dt, resolution=10)
+    row = accuracy("hydrostatic_tank", "hydrostatic", "taichi", VV, dt, resolution=10)
     assert row["status"] == "ok", row["reason"]
     assert row["within_tol"], (row["err_max"], row["tol_reason"])
     assert row["density_drift"] < 0.01
@@ -137,7 +139,8 @@ def test_refusals_and_non_finite_state():
     sim = TAICHI.build(scene, 100 * dt, VV)
     sim.step(40)
     assert sim.failure and "non-finite" in sim.failure
-    h = CASE.variant_params("hydrostatic", {"resolution": 10})
-    row = accuracy("dam_break", "hydrostatic", "taichi", VV, 10 * CASE.reference_dt(h),
+    h = HYDROSTATIC.variant_params("hydrostatic", {"resolution": 10})
+    dt = 10 * HYDROSTATIC.reference_dt(h)
+    row = accuracy("hydrostatic_tank", "hydrostatic", "taichi", VV, dt,
                    resolution=10)  # blows up to huge finite values: the runner's energy check
     assert row["status"] == "diverged" and "energy" in row["reason"]

@@ -1,4 +1,4 @@
-"""taichi adapter on colliding spheres: exact impulse outcomes, momentum, Newton's cradle, the
+"""taichi adapter on sphere contacts: exact impulse outcomes, momentum, Newton's cradle, the
 box, the broad phase, friction, gravity, determinism, settings.
 
 taichi (1.7.4) must be installed: a missing engine fails at import, never skips. The contact
@@ -20,7 +20,6 @@ from refsim.scene import Body, ContactModel, Joint, Scene, Wall
 from refsim.testing import accuracy
 
 SE = "symplectic_euler"
-CASE = "colliding_spheres"
 TAICHI = get_engine("taichi")
 HEAD_ON = {"head_on": (-1.0, 1.0), "head_on_e0.5": (-0.5, 0.5),
            "head_on_1to3": (-2.0, 0.0), "head_on_1to3_e0.5": (-1.25, -0.25)}  # ENGINE_NOTES
@@ -28,14 +27,21 @@ PAIRS = list(HEAD_ON) + ["oblique", "oblique_friction"]
 import_taichi()  # CI must have every engine: fail here, not skip
 
 
+def case_of(variant):
+    """Name of the contact case that holds `variant`."""
+    if variant == "cradle":
+        return "newtons_cradle"
+    return "sphere_box" if variant.startswith("box_") else "sphere_pairs"
+
+
 def _params(variant, **over):
-    c = get_case(CASE)
+    c = get_case(case_of(variant))
     return c, c.variant_params(variant, over)
 
 
 @functools.lru_cache(maxsize=None)
 def _cached(variant, dt, engine_variant, over):
-    return accuracy(CASE, variant, "taichi", SE, dt, engine_variant, **dict(over))
+    return accuracy(case_of(variant), variant, "taichi", SE, dt, engine_variant, **dict(over))
 
 
 def _run(variant, dt=1e-3, engine_variant="", **over):
@@ -261,7 +267,7 @@ def test_friction_stick_and_slide_match_the_exact_impact(mu, regime):
     assert row["within_tol"] and row["err_max"] <= 1e-14
     _, w_ref = c.outcome(p)
     assert np.abs(row["trajectory"]["w"][-1] - w_ref).max() <= 1e-13
-    x0, v0, m, w0 = c._initial(p)
+    x0, v0, m, w0 = c.initial_state(p)
     n = np.array([np.sqrt(4 * p["radius"] ** 2 - p["impact"] ** 2), 0.0, p["impact"]]) / (
         2 * p["radius"])
     arm = p["radius"] * n
@@ -337,8 +343,8 @@ def test_settings_report_contact_model_and_restitution_mapping():
     assert s["integrator"]["name"] == SE and s["dtype"] == "float64" and s["threads"] == 1
     assert s["default_fp"] == "f64" and "serialize=True" in s["time_loop"]
     assert s["step_order"].startswith("kick")
-    assert TAICHI.variants(get_case(CASE).scene(_params("head_on")[1])) == (
-        "", "launch_per_step", "overlap_normal")
+    c, p = _params("head_on")
+    assert TAICHI.variants(c.scene(p)) == ("", "launch_per_step", "overlap_normal")
 
 
 def test_observe_shapes():
