@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..common.checks import (linear_drag, non_sphere_bodies, spheres_without_inertia,
+                             walls_without_contact)
 from .body_plan import BodyPlan
 from .contact_params import (CONTACT_STEPS, IMPEDANCE, MAX_FRICTION_SPHERES,
                              SOLVER_ITERATIONS, SOLVER_TOLERANCE, VARIANT_NOTES,
@@ -35,30 +37,39 @@ from .contact_params import (CONTACT_STEPS, IMPEDANCE, MAX_FRICTION_SPHERES,
 from .mjcf import xml_floats
 from .restitution import RestitutionMap, restitution_map
 
+WHO = "mujoco adapter"  # how the reasons name this engine
+
 
 def sphere_plans(scene) -> list[BodyPlan]:
     """Every body a free sphere; qvel0 = (v, w): the free joint's angular velocity is in the
     body frame, which is the world frame at t = 0 (identity orientation)."""
-    if scene.contact is None:
-        raise ValueError("mujoco adapter: walls need a contact model (scene.contact)")
-    if scene.springs or scene.joints:
-        raise ValueError("mujoco adapter: springs and rods are not combined with contacts "
-                         "(every sphere is a free body)")
-    if scene.linear_drag > 0:
-        raise ValueError("mujoco adapter: linear drag on spheres is not modelled (damping on a "
-                         "free joint would also damp the spin)")
-    if any(b.radius <= 0 for b in scene.bodies):
-        raise ValueError("mujoco adapter: contacts need spheres (radius > 0)")
-    if any(b.inertia <= 0 for b in scene.bodies):
-        raise ValueError("mujoco adapter: a sphere needs its moment of inertia (> 0); the "
-                         "adapter never lets MuJoCo derive one from the geom")
-    if scene.contact.friction > 0 and len(scene.bodies) > MAX_FRICTION_SPHERES:
-        raise ValueError(f"mujoco adapter: friction is modelled for at most "
-                         f"{MAX_FRICTION_SPHERES} spheres (its damping, solreffriction, is "
-                         f"set only on explicit contact pairs, O(n^2) of them)")
+    reason = _sphere_scene_refusal(scene)
+    if reason:
+        raise ValueError(reason)
     return [BodyPlan("sphere", i, b.mass, b.position, radius=b.radius, inertia=b.inertia,
                      qvel0=b.velocity + b.angular_velocity)
             for i, b in enumerate(scene.bodies)]
+
+
+def _sphere_scene_refusal(scene):
+    """Why the scene's spheres cannot be free MuJoCo bodies with soft contacts, or None."""
+    if scene.contact is None:
+        return walls_without_contact(scene, WHO)
+    if scene.springs or scene.joints:
+        return ("mujoco adapter: springs and rods are not combined with contacts (every "
+                "sphere is a free body)")
+    reason = (linear_drag(scene, WHO, "spheres",
+                          " (damping on a free joint would also damp the spin)")
+              or non_sphere_bodies(scene, WHO)
+              or spheres_without_inertia(scene, WHO, why=(
+                  "; the adapter never lets MuJoCo derive one from the geom")))
+    if reason:
+        return reason
+    if scene.contact.friction > 0 and len(scene.bodies) > MAX_FRICTION_SPHERES:
+        return (f"mujoco adapter: friction is modelled for at most {MAX_FRICTION_SPHERES} "
+                f"spheres (its damping, solreffriction, is set only on explicit contact "
+                f"pairs, O(n^2) of them)")
+    return None
 
 
 def rotate(quat: np.ndarray, vec: np.ndarray) -> np.ndarray:
@@ -73,7 +84,8 @@ class ContactSetup:
     """Contact parameters of one sphere scene at one dt and integrator."""
 
     nbody: int
-    walls: tuple  # ((point), (normal)) pairs
+    wall_points: np.ndarray  # (n_walls, 3): scene.wall_set.point
+    wall_normals: np.ndarray  # (n_walls, 3) unit, into free space: scene.wall_set.normal
     restitution_map: RestitutionMap
     friction: float
     friction_damping: float
@@ -87,7 +99,7 @@ class ContactSetup:
     def make(cls, scene, dt, integrator, variant):
         rmap = restitution_map(scene.contact.restitution, dt, integrator, IMPEDANCE[variant])
         mu = scene.contact.friction
-        return cls(len(scene.bodies), tuple((w.point, w.normal) for w in scene.walls), rmap,
+        return cls(len(scene.bodies), scene.wall_set.point, scene.wall_set.normal, rmap,
                    mu, friction_damping(dt) if mu > 0 else 0.0, variant)
 
     @property
@@ -111,7 +123,7 @@ class ContactSetup:
     def walls_xml(self) -> str:
         return "".join(f'<geom name="w{k}" type="plane" pos="{xml_floats(p)}" '
                        f'zaxis="{xml_floats(n)}" size="0 0 1"/>'
-                       for k, (p, n) in enumerate(self.walls))
+                       for k, (p, n) in enumerate(zip(self.wall_points, self.wall_normals)))
 
     def pairs_xml(self) -> str:
         if self.friction <= 0:
@@ -121,7 +133,7 @@ class ContactSetup:
                  f'solreffriction="0 {xml_floats(-self.friction_damping)}"')
         names = [f"s{i}" for i in range(self.nbody)]
         pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
-        pairs += [(f"w{k}", a) for k in range(len(self.walls)) for a in names]
+        pairs += [(f"w{k}", a) for k in range(len(self.wall_points)) for a in names]
         return "<contact>" + "".join(f'<pair geom1="{a}" geom2="{b}" {attrs}/>'
                                      for a, b in pairs) + "</contact>"
 
@@ -169,5 +181,6 @@ class ContactSetup:
                 "at the contact frequency (MuJoCo's default dampratio 1). MuJoCo's regularised "
                 "cone couples sliding friction with the normal force: an impact that slides "
                 "rebounds with less normal speed than Newton's law gives"),
-            "friction_pairs": self.nbody * (self.nbody - 1) // 2 + self.nbody * len(self.walls),
+            "friction_pairs": (self.nbody * (self.nbody - 1) // 2
+                               + self.nbody * len(self.wall_points)),
         }

@@ -35,10 +35,10 @@ outcomes are exact to round-off at any dt, an oblique one is tilted by the overl
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from ..common.checks import non_sphere_bodies, spheres_without_inertia, walls_without_contact
+from ..common.contacts import per_shape_coefficients
 from .runtime import INTEGRATOR
 
 # Contact scenes: setPhysicsEngineParameter values (pybullet 3.2.7; reasons in the docstring).
@@ -50,6 +50,7 @@ CONTACT_PARAMS = {
     "numSolverIterations": 50, "solverResidualThreshold": 0.0, "enableConeFriction": 1,
     "deterministicOverlappingPairs": 1,
 }
+WHO = "pybullet adapter"  # how the reasons name this engine
 SLAB_MIN_THICKNESS = 1.0  # m; a wall slab is at least this thick (and at least the box size)
 # pybullet's defaults that CONTACT_PARAMS replaces, with what each did (measured, dt = 1e-3)
 CONTACT_DEFAULTS = {
@@ -68,21 +69,14 @@ CONTACT_DEFAULTS = {
 
 def contact_mismatch(scene):
     """A reason when the adapter cannot build the scene's contacts faithfully, else None."""
-    if scene.walls and scene.contact is None:
-        return "pybullet adapter: walls need a contact model (scene.contact: e and mu)"
     if scene.contact is None:
-        return None
+        return walls_without_contact(scene, WHO)
     if scene.joints:
         return ("pybullet adapter: contacts are built for free spheres only (a body on a rod "
                 "is a multibody link without a collision shape)")
-    for i, b in enumerate(scene.bodies):
-        if b.radius <= 0:
-            return (f"pybullet adapter: every body of a contact scene must be a sphere "
-                    f"(radius > 0); body {i} has radius {b.radius:g}")
-        if b.inertia <= 0 and scene.contact.friction > 0:
-            return (f"pybullet adapter: body {i} has zero inertia under friction; Bullet reads "
-                    f"a zero inertia as infinite (no spin), not as zero")
-    return None
+    return (non_sphere_bodies(scene, WHO)
+            or spheres_without_inertia(scene, WHO, friction_only=True, why=(
+                "; Bullet reads a zero inertia as infinite (no spin), not as zero")))
 
 
 def box_bounds(walls):
@@ -133,8 +127,8 @@ def wall_slabs(walls, bodies):
 
 def materials(contact):
     """Per-body values whose pair product is the scene's e and mu (Bullet multiplies)."""
-    return dict(restitution=math.sqrt(contact.restitution),
-                lateralFriction=math.sqrt(contact.friction),
+    restitution, friction = per_shape_coefficients(contact)
+    return dict(restitution=restitution, lateralFriction=friction,
                 rollingFriction=0.0, spinningFriction=0.0)
 
 
@@ -194,7 +188,7 @@ def build_walls(p, cid, scene):
 
 def contact_settings(scene, walls_built):
     """The settings of a contact scene (they replace some of the multibody ones)."""
-    e, mu = scene.contact.restitution, scene.contact.friction
+    sqrt_e, sqrt_mu = per_shape_coefficients(scene.contact)
     return {
         "integrator": dict(INTEGRATOR, native=("semi-implicit Euler (btRigidBody: "
                                                "velocities, contact impulses included, "
@@ -206,9 +200,9 @@ def contact_settings(scene, walls_built):
         "contact_solver": ("sequential impulses (projected Gauss-Seidel) on Newton's "
                            "restitution law + Coulomb friction, once per step, before the "
                            "positions move; contacts from the previous step's positions"),
-        "restitution_mapping": (f"restitution sqrt(e) = {math.sqrt(e)!r} on every "
+        "restitution_mapping": (f"restitution sqrt(e) = {sqrt_e!r} on every "
                                 f"sphere and wall (Bullet multiplies the pair's values)"),
-        "friction_mapping": (f"lateralFriction sqrt(mu) = {math.sqrt(mu)!r} on every "
+        "friction_mapping": (f"lateralFriction sqrt(mu) = {sqrt_mu!r} on every "
                              f"sphere and wall (multiplied); rollingFriction = "
                              f"spinningFriction = 0"),
         "engine_parameters": dict(CONTACT_PARAMS),

@@ -19,50 +19,31 @@ import math
 
 import numpy as np
 
-from refsim.models.joints import cartesian_to_hinge, hinge_frame
+from ..common.checks import rods_per_body
+from ..common.hinges import HingeFrames, rod_start_refusal
 
 MAX_SPEED = math.inf  # replaces pybullet's 100 m/s multibody clamp
-ROD_RTOL = 1e-9  # a body this far (relative) off its rod's circle is refused, not projected
-
-
-def rod_mismatch(scene, joint):
-    """A reason when the body is not on the rod's circle or moves off the hinge's arc (a
-    revolute joint cannot hold that state); None when the hinge represents it exactly."""
-    body = scene.bodies[joint.body]
-    r = np.subtract(body.position, joint.anchor)
-    axis = np.asarray(joint.axis)
-    scale = joint.length
-    if abs(np.linalg.norm(r) - joint.length) > ROD_RTOL * scale or \
-            abs(r @ axis) > ROD_RTOL * scale:
-        return (f"pybullet adapter: body {joint.body} is not on its rod's circle (distance "
-                f"{np.linalg.norm(r):.6g} m from the anchor, rod length {joint.length:.6g} m)")
-    v = np.asarray(body.velocity)
-    if abs(v @ r) > ROD_RTOL * scale * max(1.0, np.linalg.norm(v)) or \
-            abs(v @ axis) > ROD_RTOL * max(1.0, np.linalg.norm(v)):
-        return f"pybullet adapter: body {joint.body}'s velocity leaves the hinge's arc"
-    return None
+WHO = "pybullet adapter"  # how the reasons name this engine
 
 
 def rods_mismatch(scene):
     """A reason when a body has two rods or a rod a state its hinge cannot hold, else None."""
-    rod_bodies = [j.body for j in scene.joints]
-    if len(set(rod_bodies)) != len(rod_bodies):
-        return "pybullet adapter: one rod per body (two rods on a body form a closed loop)"
-    for j in scene.joints:
-        why = rod_mismatch(scene, j)
-        if why:
-            return why
-    return None
+    return (rods_per_body(scene, WHO, why=" (two rods on a body form a closed loop)")
+            or rod_start_refusal(scene, WHO))
 
 
 def build_multibodies(p, cid, scene):
     """(multibody id, link index) per scene body: -1 for a free base, 0 for a rod's link; and
     the indices of the bodies on rods."""
-    rods = {j.body: j for j in scene.joints}
+    frames = HingeFrames.from_scene(scene)
+    theta, omega = frames.initial_angles(scene.positions, scene.velocities)
+    rods = {int(b): k for k, b in enumerate(frames.bodies)}  # body -> its rod's index
     handles, hinges = [], []
     for i, body in enumerate(scene.bodies):
         if i in rods:
-            handles.append((hinge_body(p, cid, body, rods[i], scene.gravity), 0))
+            k = rods[i]
+            handles.append((hinge_body(p, cid, body, scene.joints[k], frames.d[k],
+                                       (theta[k], omega[k])), 0))
             hinges.append(i)
         else:
             handles.append((free_body(p, cid, body), -1))
@@ -79,11 +60,11 @@ def free_body(p, cid, body):
     return uid
 
 
-def hinge_body(p, cid, body, joint, gravity):
+def hinge_body(p, cid, body, joint, d, start):
     """Fixed base at the anchor, one revolute link; the link's centre of mass (the body) at
-    L d for q = 0, d hanging along gravity in the hinge plane. The joint axis is -axis, so
-    q turns d towards s = d x axis: q is refsim's hinge angle theta."""
-    d, s, _ = hinge_frame(joint.axis, gravity)
+    L d for q = 0, d hanging along gravity in the hinge plane (HingeFrames.d). The joint axis
+    is -axis, so q turns d towards s = d x axis: q is refsim's hinge angle theta, set to
+    `start` = (theta, omega)."""
     uid = p.createMultiBody(
         baseMass=0.0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=-1,
         basePosition=joint.anchor, linkMasses=[body.mass], linkCollisionShapeIndices=[-1],
@@ -96,8 +77,7 @@ def hinge_body(p, cid, body, joint, gravity):
     exact_dynamics(p, cid, uid, -1, None)  # the fixed base: no inertia to set
     exact_dynamics(p, cid, uid, 0, body.inertia)
     p.setJointMotorControl2(uid, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
-    theta, omega = cartesian_to_hinge(np.asarray(body.position), np.asarray(body.velocity),
-                                      np.asarray(joint.anchor), joint.length, d, s)
+    theta, omega = start
     p.resetJointState(uid, 0, float(theta), float(omega), physicsClientId=cid)
     return uid
 

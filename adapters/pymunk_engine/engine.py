@@ -5,6 +5,7 @@ import numpy as np
 
 from refsim.engine import Engine
 
+from ..common.checks import non_sphere_bodies, walls_without_contact
 from .plane import Plane
 
 JOINT_VARIANTS = ("", "default_bias")
@@ -23,11 +24,9 @@ class PymunkEngine(Engine):
         reason = _plane_support(scene)
         if reason:
             return reason
-        if scene.walls and scene.contact is None:
-            return "pymunk walls need a contact model (scene.contact) to collide with"
-        if scene.contact is not None and any(b.radius <= 0 for b in scene.bodies):
-            return "pymunk contacts: every body must be a sphere (circle) with radius > 0"
-        return None
+        if scene.contact is None:
+            return walls_without_contact(scene, "pymunk", " to collide with")
+        return non_sphere_bodies(scene, "pymunk")
 
     def variants(self, scene):
         """`default_bias` keeps pymunk's own PinJoint error_bias (ENGINE_NOTES: it loses

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import math
 
-from .space import PYMUNK_DEFAULTS, shape_coefficients, wall_half_length
+from ..common.contacts import per_shape_coefficients
+from .space import PYMUNK_DEFAULTS, wall_half_length
 
 NATIVE_STEP = ("cpSpaceStep: position_func (x += h v), constraint preStep at the new positions "
                "(spring impulse), velocity_func (v += h (g + f/m)), impulse iterations")
@@ -109,7 +110,7 @@ def contact_settings(sim):
 
 
 def _coefficient_settings(contact):
-    e, mu = shape_coefficients(contact)
+    e, mu = per_shape_coefficients(contact)
     return {"restitution": {"e": contact.restitution, "shape_elasticity": e,
                             "effective": e * e, "mapping": "sqrt(e) on every shape: "
                             "Chipmunk multiplies the two shapes' elasticities "

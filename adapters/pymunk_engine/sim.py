@@ -5,6 +5,7 @@ import numpy as np
 
 from refsim.engine import Sim
 
+from ..common.hinges import rod_length_errors
 from . import settings as described
 from .plane import Plane
 from .space import add_joint, add_spring, make_body, make_circles, make_space, make_wall
@@ -58,8 +59,7 @@ class PymunkSim(Sim):
                                             for b in self.bodies]
             out["w"] = w
         if self.scene.joints:
-            out["constraint"] = np.array([np.linalg.norm(x[j.body] - np.asarray(j.anchor))
-                                          - j.length for j in self.scene.joints])
+            out["constraint"] = rod_length_errors(self.scene, x)
         return out
 
     def settings(self):

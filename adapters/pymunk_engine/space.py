@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from ..common.contacts import per_shape_coefficients
+
 ITERATIONS = 10  # pymunk's default, kept; one constraint per body is solved in the first pass
 # Contact position correction off: collision_bias = 1 makes the bias coefficient 1 - 1^h = 0,
 # so positions move only with the velocities (a pure impulse model); slop 0 is then inert.
@@ -46,16 +48,12 @@ def make_body(pymunk, body, plane):
     return pb
 
 
-def shape_coefficients(contact):
-    """(sqrt(e), sqrt(mu)) for every shape: Chipmunk multiplies the two shapes' coefficients
-    per contact (cpArbiterUpdate: e = a.e * b.e, u = a.u * b.u; measured: 0.5 on each gives
-    e = 0.25), so the pair's product is e (mu) to 1 ulp."""
-    return math.sqrt(contact.restitution), math.sqrt(contact.friction)
-
-
 def make_circles(pymunk, bodies, scene):
-    """One Circle per sphere, carrying sqrt(e) and sqrt(mu) (see shape_coefficients)."""
-    e, mu = shape_coefficients(scene.contact)
+    """One Circle per sphere, carrying sqrt(e) and sqrt(mu): Chipmunk multiplies the two
+    shapes' coefficients per contact (cpArbiterUpdate: e = a.e * b.e, u = a.u * b.u; measured:
+    0.5 on each gives e = 0.25), so the pair's product is e (mu) to 1 ulp
+    (adapters.common.contacts.per_shape_coefficients)."""
+    e, mu = per_shape_coefficients(scene.contact)
     circles = []
     for pb, body in zip(bodies, scene.bodies):
         circle = pymunk.Circle(pb, body.radius)
@@ -79,7 +77,7 @@ def make_wall(pymunk, space, wall, scene, plane):
     p, n = np.array(plane.to2d(wall.point)), np.array(plane.to2d(wall.normal))
     t = np.array([-n[1], n[0]]) / np.linalg.norm(n) * wall_half_length(scene)
     seg = pymunk.Segment(space.static_body, tuple(p - t), tuple(p + t), 0.0)
-    seg.elasticity, seg.friction = shape_coefficients(scene.contact)
+    seg.elasticity, seg.friction = per_shape_coefficients(scene.contact)
     return seg
 
 

@@ -8,7 +8,9 @@ Modules, one per model group:
 - `particles`: ParticleSim (free particles, springs, drag; rods as KKT or penalty springs);
 - `hinges`: HingeSim (rods in generalized coordinates, one angle per rod);
 - `contacts`: ContactSim (spheres and walls with impulses, three formulations);
-- `sph`: FluidSim (2D weakly compressible SPH in a tank) and its particle lattices.
+- `sph`: FluidSim (2D weakly compressible SPH in a tank).
+Scene translation shared with the other engines (refusals, hinge frames, rod errors, SPH
+lattices) is in `adapters.common`.
 """
 from .engine import RefsimEngine
 

@@ -34,8 +34,7 @@ class ContactSim(Sim):
         self.inv_i = np.divide(1.0, inertia, out=np.zeros_like(inertia), where=inertia > 0)
         self.g = np.asarray(scene.gravity)
         self.e, self.mu = scene.contact.restitution, scene.contact.friction
-        self.wall_p = np.array([w.point for w in scene.walls]).reshape(-1, 3)
-        self.wall_n = np.array([w.normal for w in scene.walls]).reshape(-1, 3)
+        self.wall_p, self.wall_n = scene.wall_set.point, scene.wall_set.normal  # read-only
         self.wall_impulse = np.zeros(3)
         self._step = {"discrete": self._discrete, "continuous": self._continuous,
                       "hard_sphere_seed": self._seed}[variant]

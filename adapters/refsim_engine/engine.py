@@ -7,11 +7,10 @@ Sphere scenes run `contacts.ContactSim`, fluid scenes `sph.FluidSim`.
 """
 from __future__ import annotations
 
-import numpy as np
-
 from refsim.engine import Engine
 from refsim.integrators import INTEGRATORS, get_integrator
 
+from ..common.checks import non_sphere_bodies, rods_per_body, springs_on_rod_bodies
 from .contacts import CONTACT_VARIANTS, ContactSim
 from .hinges import HingeSim
 from .particles import ParticleSim
@@ -72,15 +71,9 @@ def _contact_support(scene, integrator):
                 "solver defines the step")
     if scene.springs or scene.joints or scene.linear_drag:
         return "refsim contact scenes: springs, rods and drag are not combined with contacts"
-    if np.any(scene.radii <= 0):
-        return "refsim contacts need spheres (radius > 0)"
-    return None
+    return non_sphere_bodies(scene, "refsim")
 
 
 def _joint_support(scene):
-    jointed = {j.body for j in scene.joints}
-    if len(jointed) != len(scene.joints) or len(jointed) != len(scene.bodies):
-        return "refsim joints: exactly one rod per body"
-    if any(s.body in jointed or s.other in jointed for s in scene.springs):
-        return "refsim joints: springs on a rod's body are not modelled"
-    return None
+    return (rods_per_body(scene, "refsim joints", every_body=True)
+            or springs_on_rod_bodies(scene, "refsim joints"))

@@ -9,6 +9,7 @@ from refsim.models.joints import RodSet
 from refsim.models.system import ParticleSystem
 from refsim.scene import Spring
 
+from ..common.hinges import rod_length_errors
 from .stepped import SteppedSim
 
 FORMULATIONS = {"": "cartesian",
@@ -80,8 +81,3 @@ def baumgarte_rods(scene, baumgarte_ratio):
                   anchor=np.array([j.anchor for j in scene.joints]),
                   length=lengths, baumgarte=rate)
 
-
-def rod_length_errors(scene, x):
-    """|x_body - anchor| - L per rod (m)."""
-    return np.array([np.linalg.norm(x[j.body] - np.asarray(j.anchor)) - j.length
-                     for j in scene.joints])

@@ -1,46 +1,24 @@
 """The in-house engine's fluid step (`refsim`, feature "fluid"): 2D weakly compressible SPH
-(`refsim.models.sph`) with a fluid block released in a tank whose walls are dummy particles."""
+(`refsim.models.sph`) with a fluid block released in a tank whose walls are dummy particles
+(the lattices from `adapters.common.sph_lattice`)."""
 from __future__ import annotations
 
 import numpy as np
 
 from refsim.engine import Sim
-from refsim.models.sph import WCSPH, FluidState, tait_density
+from refsim.models.sph import WCSPH, FluidState
 
-WALL_LAYERS = 3  # dummy-particle layers: they must cover the kernel support 2h = 2.6 dx
-
-
-def fluid_particles(fluid):
-    """Particle centres on a square lattice filling the block (FluidSim sets their densities)."""
-    dx = fluid.spacing
-    nx = int(round((fluid.upper[0] - fluid.lower[0]) / dx))
-    ny = int(round((fluid.upper[1] - fluid.lower[1]) / dx))
-    gx, gy = np.meshgrid(fluid.lower[0] + dx * (np.arange(nx) + 0.5),
-                         fluid.lower[1] + dx * (np.arange(ny) + 0.5), indexing="ij")
-    return np.column_stack([gx.ravel(), gy.ravel()])
-
-
-def wall_particles(fluid):
-    """Bottom, left and right walls of the tank, WALL_LAYERS deep, on the fluid's lattice."""
-    dx, width, height = fluid.spacing, fluid.tank_width, fluid.tank_height
-    depth = WALL_LAYERS * dx
-    xs = np.arange(-depth + 0.5 * dx, width + depth, dx)
-    ys = np.arange(-depth + 0.5 * dx, height, dx)
-    gx, gy = np.meshgrid(xs, ys, indexing="ij")
-    pts = np.column_stack([gx.ravel(), gy.ravel()])
-    solid = (pts[:, 1] < 0) | (pts[:, 0] < 0) | (pts[:, 0] > width)
-    return pts[solid]
+from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
+                                  plane_gravity, wall_particles)
 
 
 class FluidSim(Sim):
     def __init__(self, scene, dt):
         fluid = scene.fluid
         self.dt, self.fluid = float(dt), fluid
-        g = np.asarray(scene.gravity, float)[:2] if scene.dim == 2 else np.asarray(
-            scene.gravity)[[0, 2]]
+        g = plane_gravity(scene)
         x = fluid_particles(fluid)
-        depth = fluid.upper[1] - x[:, 1]
-        rho = tait_density(fluid.density * abs(g[1]) * depth, fluid.density, fluid.sound_speed)
+        rho = hydrostatic_densities(fluid, x, g)
         self.mass = fluid.density * fluid.spacing ** 2
         self.h = fluid.smoothing * fluid.spacing
         self.model = WCSPH(wall_particles(fluid), self.mass, self.h, fluid.density,

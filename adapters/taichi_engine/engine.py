@@ -4,7 +4,12 @@ from __future__ import annotations
 
 from refsim.engine import Engine
 
+from ..common.checks import (body_to_body_springs, linear_drag, non_sphere_bodies,
+                             rods_per_body, spheres_without_inertia, springs_on_rod_bodies,
+                             walls_without_contact)
 from .runtime import import_taichi
+
+WHO = "taichi adapter"  # how the reasons name this engine
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4")
 VARIANTS = ("", "launch_per_step")
@@ -36,9 +41,9 @@ class TaichiEngine(Engine):
     def _supports(self, scene, integrator):
         if scene.fluid is not None:
             return fluid_refusal(scene, integrator)
-        if any(s.other is not None for s in scene.springs):
-            return ("taichi adapter: springs between two bodies are not modelled "
-                    "(only springs to fixed anchors)")
+        reason = body_to_body_springs(scene, WHO, " (only springs to fixed anchors)")
+        if reason:
+            return reason
         if has_contacts(scene):
             return contact_refusal(scene, integrator)
         if scene.joints:
@@ -73,8 +78,9 @@ def fluid_refusal(scene, integrator):
     if scene.bodies or scene.springs or scene.joints or scene.contact is not None:
         return ("taichi adapter: a fluid scene holds the fluid and its tank only (bodies, "
                 "springs, joints or contacts with SPH are not modelled)")
-    if scene.linear_drag > 0:
-        return "taichi adapter: linear drag on SPH particles is not modelled"
+    reason = linear_drag(scene, WHO, "SPH particles")
+    if reason:
+        return reason
     if integrator is not None and integrator != "velocity_verlet":
         return ("taichi adapter: fluid scenes step with kick-drift-kick SPH "
                 "('velocity_verlet'), as refsim's")
@@ -84,24 +90,17 @@ def fluid_refusal(scene, integrator):
 def contact_refusal(scene, integrator):
     """Why a contact scene cannot be simulated faithfully here, or None."""
     if scene.contact is None:
-        return "taichi adapter: walls need a contact model (scene.contact) for their restitution"
+        return walls_without_contact(scene, WHO, " for their restitution")
     if scene.joints:
         return "taichi adapter: contacts with hinged bodies are not modelled"
     if integrator is not None and integrator != "symplectic_euler":
         return ("taichi adapter: contact scenes step with symplectic_euler only (kick-drift, "
                 "then impulses; a multi-stage stepper would need the impact located in time)")
-    if any(b.radius <= 0 for b in scene.bodies):
-        return "taichi adapter: contacts need every body to be a sphere of radius > 0"
-    if scene.contact.friction > 0 and any(b.inertia <= 0 for b in scene.bodies):
-        return "taichi adapter: friction needs every sphere's moment of inertia > 0"
-    return None
+    return (non_sphere_bodies(scene, WHO)
+            or spheres_without_inertia(scene, WHO, friction_only=True))
 
 
 def hinge_refusal(scene):
     """Why a scene with joints cannot be run in generalized coordinates here, or None."""
-    jointed = {j.body for j in scene.joints}
-    if len(jointed) != len(scene.joints) or len(jointed) != len(scene.bodies):
-        return "taichi adapter: hinges need exactly one rod per body (generalized coordinates)"
-    if scene.springs:
-        return "taichi adapter: springs on a hinged body are not modelled"
-    return None
+    return (rods_per_body(scene, WHO, every_body=True, why=" (generalized coordinates)")
+            or springs_on_rod_bodies(scene, WHO))

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.models.joints import cartesian_to_hinge, hinge_frame, hinge_to_cartesian
-
+from ..common.hinges import HingeFrames
 from .runtime import to_ndarray
 from .sim import KernelSim
 
@@ -57,44 +56,29 @@ class ParticleSim(KernelSim):
 
 class HingeSim(KernelSim):
     """Rods in generalized coordinates: theta'' = -(g/L) sin theta - (b/m) theta', the angle
-    mapped to the bob with refsim's hinge frame."""
+    mapped to the bob with refsim's hinge frame (adapters.common.hinges.HingeFrames)."""
 
     system = "hinges"
 
     def __init__(self, scene, dt, integrator, variant):
         from .particle_kernels import hinges_t
         self.scene = scene
-        frames = [hinge_frame(j.axis, scene.gravity) for j in scene.joints]
-        self.d = np.array([f[0] for f in frames])
-        self.s = np.array([f[1] for f in frames])
-        self.bodies = np.array([j.body for j in scene.joints])
-        self.anchor = np.array([j.anchor for j in scene.joints])
-        self.length = np.array([j.length for j in scene.joints])
-        theta0, omega0 = self._initial_angles(scene)
-        masses = scene.masses[self.bodies]
-        g_plane = np.array([f[2] for f in frames])
+        self.frames = frames = HingeFrames.from_scene(scene)
+        theta0, omega0 = frames.initial_angles(scene.positions, scene.velocities)
+        masses = scene.masses[frames.bodies]
         arrays = [np.asarray(theta0, float), np.asarray(omega0, float),
-                  np.zeros(len(self.bodies)), g_plane / self.length,
-                  np.full(len(self.bodies), scene.linear_drag) / masses]
+                  np.zeros(len(frames.bodies)), frames.g_plane / frames.length,
+                  np.full(len(frames.bodies), scene.linear_drag) / masses]
         nd = [to_ndarray(np.asarray(arr, float)) for arr in arrays]
         pack = hinges_t(g_over_l=nd[3], drag_over_m=nd[4],
                         velocity_dependent=int(scene.linear_drag > 0))
         self.x, self.v = nd[0], nd[1]
         super().__init__(dt, integrator, variant, (*nd[:3], pack))
 
-    def _initial_angles(self, scene):
-        """(theta0, omega0) of each rod from its bob's position and velocity."""
-        x0, v0 = scene.positions[self.bodies], scene.velocities[self.bodies]
-        return np.array([cartesian_to_hinge(x0[i], v0[i], self.anchor[i], self.length[i],
-                                            self.d[i], self.s[i])
-                         for i in range(len(self.bodies))]).T
-
     def _observe(self):
-        theta, omega = self.x.to_numpy(), self.v.to_numpy()
-        xb, vb = hinge_to_cartesian(theta, omega, self.anchor, self.length, self.d, self.s)
-        x, v = self.scene.positions.copy(), self.scene.velocities.copy()
-        x[self.bodies], v[self.bodies] = xb, vb
-        return {"x": x, "v": v, "constraint": np.zeros(len(self.bodies))}
+        x, v = self.frames.cartesian(self.x.to_numpy(), self.v.to_numpy(),
+                                     self.scene.positions, self.scene.velocities)
+        return {"x": x, "v": v, "constraint": np.zeros(len(self.frames.bodies))}
 
     def settings(self):
         stages = ["gravity"] if any(self.scene.gravity) else []
@@ -102,5 +86,5 @@ class HingeSim(KernelSim):
             stages.append("drag")
         return {**self.base_settings(), "formulation": "generalized coordinate (hinge angle)",
                 "stages": stages + ["hinge_generalized", f"integrate:{self.integrator}"],
-                "hinge_frame": {"d": self.d.tolist(), "s": self.s.tolist()},
+                "hinge_frame": {"d": self.frames.d.tolist(), "s": self.frames.s.tolist()},
                 "constraint": "exact by construction (rod length errors reported as 0)"}

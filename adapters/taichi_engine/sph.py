@@ -2,35 +2,23 @@
 (`refsim.models.sph`: Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH density
 diffusion, Adami 2012 wall particles, negative pressures clamped to 0 or kept) and refsim's
 kick-drift-kick step with the trapezoid density drift, as taichi kernels (sph_physics,
-sph_kernels). Particles, masses and initial densities are built by the in-house engine's own
-functions (`adapters.refsim_engine.sph`), so both engines start from the same bits. Engine variant
-"parallel": one launch per step of a kernel whose stages are multi-threaded loops (gathers, no
-atomics: the same bits)."""
+sph_kernels). Particles, wall particles and initial densities come from the functions the
+in-house engine uses too (`adapters.common.sph_lattice`), so both engines start from the same
+bits. Engine variant "parallel": one launch per step of a kernel whose stages are
+multi-threaded loops (gathers, no atomics: the same bits)."""
 from __future__ import annotations
 
 import time
 
 import numpy as np
 
-from refsim.models.sph import tait_density
-
+from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
+                                  plane_gravity, wall_particles)
 from .runtime import THREADS, runtime, to_ndarray
 from .sim import KernelSim
 
 SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)
 SPH_STATS = ("steps_without_grid", "steps")  # the kernels' counters, in `stats` order
-
-
-def initial_particles(fluid, gravity):
-    """Fluid positions, wall particle positions and the fluid's hydrostatic Tait density,
-    built as adapters.refsim_engine.sph.FluidSim builds them."""
-    from ..refsim_engine.sph import fluid_particles, wall_particles
-    x = fluid_particles(fluid)
-    walls = wall_particles(fluid)
-    depth = fluid.upper[1] - x[:, 1]
-    rho = tait_density(fluid.density * abs(gravity[1]) * depth, fluid.density,
-                       fluid.sound_speed)
-    return x, walls, rho
 
 
 class FluidSim(KernelSim):
@@ -40,12 +28,11 @@ class FluidSim(KernelSim):
     system = "sph"
 
     def __init__(self, scene, dt, integrator, variant):
-        from ..refsim_engine.sph import WALL_LAYERS
         from .sph_kernels import sph_t, vec2
         fluid = self.fluid = scene.fluid
-        self.gravity = (np.asarray(scene.gravity, float)[:2] if scene.dim == 2
-                        else np.asarray(scene.gravity, float)[[0, 2]])
-        x, walls, rho = initial_particles(fluid, self.gravity)
+        self.gravity = plane_gravity(scene)
+        x, walls = fluid_particles(fluid), wall_particles(fluid)
+        rho = hydrostatic_densities(fluid, x, self.gravity)
         self.n_fluid, self.n_wall, self.wall_layers = len(x), len(walls), WALL_LAYERS
         self.mass = fluid.density * fluid.spacing ** 2
         self.h = fluid.smoothing * fluid.spacing
@@ -149,8 +136,9 @@ class FluidSim(KernelSim):
                 "gravity_2d": self.gravity.tolist(),
                 "particles": self.n_fluid, "wall_particles": self.n_wall,
                 "wall_layers": self.wall_layers,
-                "initial_conditions": "adapters.refsim_engine.sph fluid_particles / wall_particles, "
-                                      "hydrostatic Tait density (identical to refsim's)",
+                "initial_conditions": "adapters.common.sph_lattice fluid_particles / "
+                                      "wall_particles, hydrostatic Tait density (identical "
+                                      "to refsim's)",
                 "neighbours": "uniform grid over the bounding box, cell 2h (enlarged to fit "
                               f"{SPH_CELLS_PER_PARTICLE} N + 64 cells), serial counting sort, "
                               "every step; 3 x 3 cells gathered per particle",
@@ -162,7 +150,3 @@ class FluidSim(KernelSim):
                 **self._thread_settings(base),
                 "stages": ["gravity", "neighbours", "sph_rates", "walls_adami",
                            "integrate:kick-drift-kick"]}
-
-
-SPH_STATS = ("steps_without_grid", "steps")
-

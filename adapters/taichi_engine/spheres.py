@@ -51,12 +51,13 @@ class SphereSim(KernelSim):
         """Per-sphere data (radius, 1/I from the scene: never recomputed), walls (one dummy
         when none), grid and contact-list scratch, wall impulse and counters."""
         n, walls = len(scene.bodies), scene.walls
+        wall_point, wall_normal = scene.wall_set.point, scene.wall_set.normal
         inertia = scene.inertias
         cells, cap = CELLS_PER_SPHERE * n + 64, CONTACTS_PER_SPHERE * n + 64
         arrays = {"radius": scene.radii,
                   "inv_inertia": np.divide(1.0, inertia, out=np.zeros(n), where=inertia > 0),
-                  "wall_point": np.array([w.point for w in walls] or [(0.0, 0.0, 0.0)]),
-                  "wall_normal": np.array([w.normal for w in walls] or [(0.0, 0.0, 1.0)]),
+                  "wall_point": wall_point if len(walls) else np.zeros((1, 3)),
+                  "wall_normal": wall_normal if len(walls) else np.array([(0.0, 0.0, 1.0)]),
                   "cell_count": np.zeros(cells, np.int32), "cell_start": np.zeros(cells, np.int32),
                   "cell_of": np.zeros(n, np.int32), "order": np.zeros(n, np.int32),
                   "sorted_x": np.zeros((n, 3)),
