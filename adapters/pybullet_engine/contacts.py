@@ -7,7 +7,8 @@ GEOM_PLANE's AABB overlaps every sphere in the broad phase: 2.2x slower at N = 1
 GEOM_PLANE. Bullet's sequential-impulse solver then applies, at the start of every step,
 Newton's restitution law (target normal separation e times the approach speed) with Coulomb
 friction at every contact found at the positions reached by the previous step: discrete
-detection, an impulse model. Facts, measured on pybullet 3.2.7 with the sphere_pairs, newtons_cradle and sphere_box cases
+detection, an impulse model. Facts, measured on pybullet 3.2.7 with the sphere_pairs,
+newtons_cradle and sphere_box cases
 (each default below breaks the exact outcome; the adapter changes it and says so in settings()):
 - restitution and lateral friction are multiplied over the pair (default restitution 0): every
   sphere and wall gets sqrt(e) and sqrt(mu); rolling and spinning friction 0;
