@@ -24,6 +24,7 @@ def test_data_file_is_installed_as_package_data():
     assert packaged.is_file() and packaged.read_text() == DATA.read_text()
 
 
+@pytest.mark.slow
 def test_front_against_martin_moyce_at_coarse_resolution():
     """At a/dx = 10 (200 particles) the front must lie within the experiment's own 10 % spread
     in T (RMS 0.66 in Z, computed from the table), with the fitted time shift inside its

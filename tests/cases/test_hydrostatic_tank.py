@@ -9,6 +9,7 @@ from refsim.testing import accuracy
 CASE = get_case("hydrostatic_tank")
 
 
+@pytest.mark.slow
 def test_hydrostatic_tank_settles_to_rho_g_h():
     p = CASE.variant_params("hydrostatic", {"resolution": 10})
     row = accuracy("hydrostatic_tank", "hydrostatic", "refsim", "velocity_verlet",

@@ -75,6 +75,7 @@ def test_run_writes_table_and_manifest(tmp_path):
     assert "free_fall" in out.stdout and "symplectic_euler" in out.stdout
 
 
+@pytest.mark.slow
 def test_resume_finishes_without_redoing_rows(tmp_path):
     _, run_dir = _small_run(tmp_path)
     table = load_results(run_dir)

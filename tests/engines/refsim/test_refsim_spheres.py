@@ -63,6 +63,7 @@ def test_friction_conserves_momentum_and_angular_momentum_and_dissipates():
     assert np.all(np.diff(energy) <= 1e-12)
 
 
+@pytest.mark.slow
 def test_box_momentum_balance_and_energy_over_1e4_steps():
     row = accuracy("sphere_box", "box_100", "refsim", "symplectic_euler", 1e-3,
                    "discrete", duration=10.0)

@@ -76,6 +76,7 @@ def test_hydrostatic_tank_settles_to_rho_g_h():
     assert row["velocity_max"] < 0.05 and row["mass_drift"] == 0.0
 
 
+@pytest.mark.slow
 def test_dam_break_front_matches_the_in_house_engine():
     """a/dx = 10: measured front_err_rms 0.626 for refsim (time shift -0.190); taichi must
     agree to 0.02 (the runs differ by round-off only, which the flow amplifies into front
