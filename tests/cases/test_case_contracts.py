@@ -59,7 +59,7 @@ def test_case_variant_sets_and_definition_are_storable(name):
 
 
 @pytest.mark.parametrize("name", sorted(ORDER_MEANINGFUL))
-def test_case_module_docstring_states_its_reference(name):
+def test_case_module_docstring_describes_the_case_in_30_words_or_more(name):
     import inspect
     doc = inspect.getmodule(type(get_case(name))).__doc__ or ""
     assert len(doc.split()) >= 30, f"{name}: the module docstring must describe the case"

@@ -93,6 +93,6 @@ def test_single_impact_cases_reject_a_radius_of_half_a_metre_or_more(case, varia
         case.variant_params(variant, {"radius": 0.5})
 
 
-def test_pair_rejects_a_miss():
+def test_pair_rejects_an_impact_parameter_that_misses():
     with pytest.raises(ValueError, match="impact"):
         PAIRS.variant_params("oblique", {"impact": 0.2})

@@ -26,7 +26,7 @@ def test_tank_is_square_and_closed():
     """Width a, depth H = a: the block fills the tank's width, so nothing is released."""
     p = CASE.variant_params("hydrostatic")
     fluid = CASE.scene(p).fluid
-    assert fluid.upper[0] == pytest.approx(p["a"]) == pytest.approx(fluid.upper[1])
+    assert fluid.upper[0] == pytest.approx(p["a"]) and fluid.upper[1] == pytest.approx(p["a"])
     assert fluid.tank_width == pytest.approx(p["a"])
 
 

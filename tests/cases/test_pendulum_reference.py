@@ -20,12 +20,12 @@ def test_exact_solution_matches_dop853(theta0):
 @pytest.mark.parametrize("theta0,expected", [(1.0, 1.066334245579963),
                                              (np.pi / 2, 1.1803405990160962),
                                              (3.0, 2.571233949432141)])
-def test_periods(theta0, expected):
+def test_period_over_the_small_swing_period_is_the_known_ratio(theta0, expected):
     w0 = 2.0
     assert period(theta0, w0) * w0 / (2 * np.pi) == pytest.approx(expected, rel=1e-12)
 
 
-def test_release_state_and_symmetry():
+def test_exact_swing_starts_at_rest_and_reaches_minus_theta0_at_half_period():
     w0 = np.sqrt(9.81)
     theta, theta_dot = exact_pendulum(1.0, w0, np.array([0.0, period(1.0, w0) / 2]))
     np.testing.assert_allclose(theta, [1.0, -1.0], atol=1e-13)

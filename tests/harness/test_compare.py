@@ -89,7 +89,7 @@ def test_doubled_error_is_a_regression_above_round_off_only(runs, capsys):
     assert "REGRESSION free_fall/default refsim symplectic_euler dt=0.001: error x2" in out
 
 
-def test_error_within_threshold_and_improvement(runs):
+def test_error_within_threshold_is_ok_and_halved_error_is_improved(runs):
     a, b = runs
     edit_rows(b, {"case": "stiff_spring", "integrator": SE}, err_max=lambda e: 1.05 * e)
     edit_rows(b, {"case": "stiff_spring", "integrator": VV}, err_max=lambda e: 0.5 * e)

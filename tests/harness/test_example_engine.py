@@ -11,7 +11,7 @@ test_point_mass_engine = engine_suite(PointMassEngine)
 
 
 @pytest.mark.refsim_engine(PointMassEngine(), cases=["free_fall"])
-def test_marker_form(refsim_job):
+def test_marker_form_job_is_within_tolerance(refsim_job):
     assert check(refsim_job)["within_tol"]
 
 
@@ -57,7 +57,7 @@ def test_engine_agrees_with_refsim_on_the_same_job():
         assert ours["err_max"] == pytest.approx(ref["err_max"], rel=1e-9, abs=1e-12)
 
 
-def test_resolving_engines():
+def test_resolve_engine_takes_names_and_classes_and_refuses_impostors():
     assert resolve_engine("refsim") == "refsim"
     assert resolve_engine(PointMassEngine) == resolve_engine(PointMassEngine()) \
         == "example_point_mass"
@@ -82,5 +82,5 @@ def test_an_engine_with_no_supported_scene_is_one_skip():
     assert param.id == "no-jobs" and "supports none" in param.marks[0].kwargs["reason"]
 
 
-def test_plugin_is_active(pytestconfig):
+def test_refsim_pytest_plugin_is_registered(pytestconfig):
     assert pytestconfig.pluginmanager.has_plugin("refsim")

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from refsim import runner
@@ -62,16 +63,39 @@ def test_html_is_self_contained(run_dir):
     assert page.count("<table") >= 4
 
 
-def test_recommendation_is_the_cheapest_reaching_the_target(run_dir):
-    table = load_results(run_dir)
-    rows = table[table["case"] == "stiff_spring"]
-    ok = rows[rows["status"] == "ok"]
-    target = float(np.median(ok["err_max"]))
-    text = recommendation(rows, "err_max", "m", target)
-    good = ok[ok["err_max"] <= target]
-    best = good.loc[good["step_s"].idxmin()]
-    assert f"{best['integrator']} at dt = {best['dt']:.3g} s" in text
-    assert "none reaches" in recommendation(rows, "err_max", "m", 1e-30)
+def _configurations():
+    """Five hand-made rows: (engine, integrator, dt, status, err_max, step_s, us_per_step)."""
+    rows = [("refsim", "rk4", 0.01, "ok", 1e-6, 0.30, 30.0),
+            ("refsim", "velocity_verlet", 0.01, "ok", 1e-3, 0.05, 5.0),
+            ("pymunk", "symplectic_euler_dk", 0.001, "ok", 1e-5, 0.20, 2.0),
+            ("refsim", "rk4", 0.001, "diverged", 1e-9, 0.01, 1.0),  # cheapest, but not ok
+            ("refsim", "rk4", 0.005, "ok", np.nan, 0.02, 4.0)]  # cheaper still, but no error
+    return pd.DataFrame(rows, columns=["engine", "integrator", "dt", "status", "err_max",
+                                       "step_s", "us_per_step"]).assign(engine_variant="")
+
+
+@pytest.mark.parametrize("target, expected", [
+    (1e-5, "**pymunk symplectic_euler_dk at dt = 0.001 s**: 1e-05 m in 0.2 s (2 us/step; 2 of 3 "
+           "configurations reach the target)."),
+    (1e-2, "**refsim velocity_verlet at dt = 0.01 s**: 0.001 m in 0.05 s (5 us/step; 3 of 3 "
+           "configurations reach the target)."),
+    (1e-6, "**refsim rk4 at dt = 0.01 s**: 1e-06 m in 0.3 s (30 us/step; 1 of 3 "
+           "configurations reach the target).")])
+def test_recommendation_is_the_cheapest_finished_row_reaching_the_target(target, expected):
+    """Read off the table by hand: among the finished rows (status ok, finite error) whose
+    error meets the target, the least stepping time; a diverged row or one without an error
+    is never recommended however cheap."""
+    text = recommendation(_configurations(), "err_max", "m", target)
+    assert text.endswith(expected), text
+
+
+def test_recommendation_names_the_most_accurate_when_none_reaches_the_target(run_dir):
+    text = recommendation(_configurations(), "err_max", "m", 1e-8)
+    assert "none reaches the target err_max <= 1e-08 m" in text
+    assert "the most accurate is refsim rk4 at dt = 0.01 s with 1e-06 in 0.3 s" in text
+    stored = load_results(run_dir)
+    assert "none reaches" in recommendation(stored[stored["case"] == "stiff_spring"],
+                                            "err_max", "m", 1e-30)
 
 
 def test_cli_report_bad_input_is_one_line(tmp_path):

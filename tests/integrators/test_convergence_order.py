@@ -23,7 +23,7 @@ def _sweep(order, omega):
 
 
 @pytest.mark.parametrize("name", FIXED)
-def test_order_on_stiff_spring(name):
+def test_measured_order_on_stiff_spring_is_declared_order(name):
     order = get_integrator(name).order
     slope, used, errs = measured_order("stiff_spring", "default", "refsim", name,
                                        _sweep(order, 100.0), periods=1.0)
@@ -43,7 +43,7 @@ IMPLICIT_KKT_SLOW = {("implicit_euler", "kkt"), ("baraff_witkin", "kkt")}
 @pytest.mark.parametrize("name,formulation", [
     pytest.param(n, f, marks=[pytest.mark.slow] if (n, f) in IMPLICIT_KKT_SLOW else [])
     for f in FASTEST for n in FIXED if (n, f) != ("dopri5", "kkt")])
-def test_order_on_pendulum(name, formulation):
+def test_measured_order_on_pendulum_is_declared_order(name, formulation):
     order = get_integrator(name).order
     omega = FASTEST[formulation] * np.sqrt(9.81)
     slope, used, errs = measured_order("pendulum", "default", "refsim", name,

@@ -21,7 +21,7 @@ def test_embedded_weights_sum_to_one():
 
 
 @pytest.mark.parametrize("name", TABLEAUX)
-def test_order_conditions(name):
+def test_weights_meet_the_linear_order_conditions_to_declared_order(name):
     """The stability polynomial matches exp(z) through z^p: sum b A^(k-1) 1 = 1/k! (k <= p),
     the conditions any method of order p must meet on linear problems."""
     tab = TABLEAUX[name]
@@ -32,6 +32,6 @@ def test_order_conditions(name):
         term = a @ term
 
 
-def test_rk2_alpha_range():
+def test_rk2_tableau_refuses_alpha_zero():
     with pytest.raises(ValueError, match="alpha"):
         rk2_tableau(0.0)

@@ -14,7 +14,7 @@ LIMITS = {  # largest stable y from theory
 
 
 @pytest.mark.parametrize("name", LIMITS)
-def test_stability_limit(name):
+def test_bisected_stability_limit_matches_theory(name):
     stepper = get_integrator(name)
     limit = bisect_limit(lambda y: oscillator_stable(stepper, y), 0.05, 4.0, tol=1e-9)
     digits = 5e-6 if name == "dopri5" else 1e-8  # the quoted value's last digit
@@ -22,13 +22,13 @@ def test_stability_limit(name):
 
 
 @pytest.mark.parametrize("name", ["implicit_euler", "baraff_witkin"])
-def test_implicit_unconditionally_stable(name):
+def test_implicit_steppers_are_stable_at_every_step_size(name):
     stepper = get_integrator(name)
     assert all(oscillator_stable(stepper, y) for y in (0.1, 1.0, 10.0, 1e3))
 
 
 @pytest.mark.parametrize("name", ["explicit_euler", "midpoint", "heun", "rk2"])
-def test_never_stable(name):
+def test_euler_and_two_stage_rk_are_unstable_at_every_step_size(name):
     stepper = get_integrator(name)
     assert not any(oscillator_stable(stepper, y, slack=0.0) for y in (1e-2, 0.1, 1.0))
 
@@ -44,7 +44,7 @@ def _energy_ratio(name, y, x=0.7, v=-0.4):
 
 
 @pytest.mark.parametrize("y", [0.01, 0.1, 0.5, 1.5])
-def test_energy_growth_factors(y):
+def test_one_step_energy_ratio_is_each_methods_closed_form(y):
     assert _energy_ratio("explicit_euler", y) == pytest.approx(1 + y * y, rel=1e-13)
     assert _energy_ratio("implicit_euler", y) == pytest.approx(1 / (1 + y * y), rel=1e-13)
     for name in ("midpoint", "heun", "rk2"):
@@ -71,7 +71,7 @@ def test_verlet_from_rest_is_exact_discrete_cosine(name, y):
     (10.0, 0.05, "monotone"), (10.0, 0.099, "monotone"),
     (10.0, 0.15, "oscillating decay"), (10.0, 0.19, "oscillating decay"),
     (10.0, 0.21, "growth"), (10.0, 0.5, "growth")])
-def test_model_problem_explicit_euler(k, h, behaviour):
+def test_explicit_euler_decay_is_one_minus_hk_to_the_n_in_each_regime(k, h, behaviour):
     """y' = -k y under explicit Euler is the velocity of x'' = -k x' (a = -k v)."""
     system = LinearSystem([[0.0]], [[k]])
     stepper = get_integrator("explicit_euler")

@@ -135,9 +135,35 @@ BAD_FIELDS = [  # (builder, override, the field the message must name)
 ]
 
 
+ACCEPTED = {  # per builder: fields as stored, given values kept and defaults filled in by hand
+    "particles": {"mass": [1.0, 2.0], "velocity": np.zeros((2, 3)), "radius": [0.0, 0.0],
+                  "inertia": [0.0, 0.0], "angular_velocity": np.zeros((2, 3))},
+    "springs": {"body": [0], "other": [-1], "anchor": [[0.0, 0.0, 1.0]],
+                "rest_length": [0.5]},
+    "joints": {"length": [1.0], "axis": [[0.0, 1.0, 0.0]], "kinds": ("hinge",)},
+    "walls": {"point": [[0.0, 0.0, 0.0]], "normal": [[0.0, 0.0, 1.0]]},  # (0, 0, 2) made unit
+    "rigid": {"mass": [2.0], "inertia": [np.diag([1.0, 2.0, 3.0])],
+              "velocity": [[0.0, 0.0, 0.0]], "angular_velocity": [[0.0, 0.0, 0.0]]},
+    "network": {"masses": [0.1] * 4, "stiffness": [100.0] * 4, "damping": [0.0] * 4,
+                "rest_length": [1.0] * 4, "pinned": [0], "velocities": np.zeros((4, 3))},
+    "mesh": {"triangles": [[0, 1, 2], [0, 2, 3]], "thickness": 1.0,
+             "velocities": np.zeros((4, 3))},
+    "grid": {"shape": (5, 4), "spacing": (0.1, 0.1), "origin": (0.0, 0.0),
+             "boundary": (("dirichlet", "dirichlet"),) * 2},
+    "material": {"youngs_modulus": 1e6, "strain": "linear", "plasticity": None},
+}
+
+
 @pytest.mark.parametrize("builder", sorted(BUILDERS))
-def test_good_data_is_accepted(builder):
-    assert BUILDERS[builder]() == BUILDERS[builder]()  # built, and equal by value
+def test_good_data_is_stored_as_given_with_defaults_filled_in(builder):
+    part = BUILDERS[builder]()
+    assert part == BUILDERS[builder]()  # equal by value
+    for field, value in ACCEPTED[builder].items():
+        stored = getattr(part, field)
+        if isinstance(stored, np.ndarray):
+            assert np.array_equal(stored, value), field
+        else:
+            assert stored == value, field
 
 
 @pytest.mark.parametrize("builder,override,field", BAD_FIELDS)
@@ -327,7 +353,7 @@ def test_new_scene_arguments_are_checked():
         Scene(grids=(grid(), grid(model="wave")))
 
 
-def test_stays_in_plane():
+def test_plane_checks_accept_planar_motion_and_refuse_spin_out_of_it():
     flat = Scene(bodies=(Body(1.0, (1.0, 0.0, 0.0), (0.0, 0.0, 1.0),
                               angular_velocity=(0.0, 3.0, 0.0)),),
                  gravity=(0, 0, -9.81), joints=(Joint(0, (0, 0, 0), 1.0, axis=(0, -2, 0)),))

@@ -104,13 +104,13 @@ SPRING_DTS = [y / 100.0 for y in (0.2, 0.1, 0.05, 0.025)]  # y = w0 dt, w0 = 100
 
 @pytest.mark.parametrize("integrator", ["symplectic_euler", "rk4", "implicit", "implicitfast"])
 @pytest.mark.parametrize("variant", ["default", "underdamped"])
-def test_order_on_stiff_spring(integrator, variant):
+def test_measured_order_on_stiff_spring_is_declared_order(integrator, variant):
     order, used = _measured_order("stiff_spring", variant, integrator, SPRING_DTS, periods=1.0)
     assert used >= 3
     assert order == pytest.approx(METHODS[integrator].order, abs=0.15)
 
 
-def test_order_of_discrete_on_stiff_spring():
+def test_discrete_is_first_order_on_stiff_spring():
     """Backward Euler's amplitude loss (1 - (1+y^2)^(-n/2) ~ w0 t y / 2) is first order."""
     dts = [y / 100.0 for y in (0.025, 0.0125, 0.00625)]
     order, used = _measured_order("stiff_spring", "default", "discrete", dts, periods=1.0)
@@ -123,7 +123,7 @@ def test_order_of_discrete_on_stiff_spring():
     ("implicitfast", [4e-3, 2e-3, 1e-3, 5e-4]),
     ("rk4", [8e-3, 4e-3, 2e-3, 1e-3]),
 ])
-def test_order_on_pendulum(integrator, dts):
+def test_measured_order_on_pendulum_is_declared_order(integrator, dts):
     order, used = _measured_order("pendulum", "default", integrator, dts, duration=2.0)
     assert used >= 3
     assert order == pytest.approx(METHODS[integrator].order, abs=0.15)
@@ -158,7 +158,7 @@ def _stable(integrator, y):
     ("symplectic_euler", 2.0), ("implicit", 2.0), ("implicitfast", 2.0),
     ("rk4", 2.0 * math.sqrt(2.0)),
 ])
-def test_stability_limit(integrator, theory):
+def test_measured_stability_limit_matches_theory(integrator, theory):
     limit = bisect_limit(lambda y: _stable(integrator, y), 1.0, 4.0, tol=1e-4)
     assert limit == pytest.approx(theory, rel=0.01)
 
@@ -302,7 +302,7 @@ def test_bad_input_raises_value_error():
         ENGINE.build(scene, 1e-3, "rk4", "generalized")
 
 
-def test_engine_identity():
+def test_engine_reports_its_name_package_version_and_integrators():
     assert ENGINE.name == "mujoco" and ENGINE.package == "mujoco"
     assert ENGINE.available() and ENGINE.version() == mujoco.__version__
     assert set(ENGINE.integrators) == {"symplectic_euler", "rk4", "implicit", "implicitfast",

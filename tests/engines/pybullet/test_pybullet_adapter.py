@@ -206,7 +206,7 @@ def test_within_tolerance_at_reference_dt(case, variant):
     assert row["constraint_drift"] == 0.0 or case != "pendulum"  # generalized coordinates
 
 
-def test_runner_row_with_timing_pass():
+def test_runner_row_with_timing_is_ok_first_order_and_timed():
     case = get_case("stiff_spring")
     p = case.variant_params("default")
     row = run_job(Job("stiff_spring", "default", "pybullet", "", SE, case.reference_dt(p)),
@@ -291,7 +291,7 @@ def test_explicit_instability_is_reported_as_diverged():
     assert row["status"] == "diverged" and "energy" in row["reason"], row["reason"]
 
 
-def test_unsupported_and_bad_input():
+def test_unsupported_scenes_are_refused_and_bad_dt_or_variant_raise():
     scene, dt, _ = _case_scene("stiff_spring", "default")
     assert "rk4" in ENGINE.supports(scene, "rk4")
     with pytest.raises(ValueError, match="rk4"):

@@ -221,7 +221,7 @@ def test_settings_report_engine_notes_fixes():
     assert not d["integrator"]["symplectic"]
 
 
-def test_spring_and_drag_settings():
+def test_settings_name_the_damped_spring_and_each_drag_method():
     c, p = _params("stiff_spring", "underdamped")
     s = PYMUNK.build(c.scene(p), 1e-4, DK).settings()
     assert s["springs"]["type"] == "DampedSpring" and s["springs"]["damping"][0] > 0

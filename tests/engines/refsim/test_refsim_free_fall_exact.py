@@ -23,7 +23,7 @@ def _heights(integrator):
 
 
 @pytest.mark.parametrize("name", [n for n in INTEGRATORS if n != "dopri5_adaptive"])
-def test_free_fall_closed_forms(name):
+def test_free_fall_heights_equal_each_steppers_discrete_closed_form(name):
     p, z = _heights(name)
     k = np.arange(1, STEPS + 1)
     z0, v0, g = p["height"], p["vz0"], p["g"]

@@ -116,7 +116,7 @@ def test_two_d_scenes_agree_with_refsim():
     (RK4, 4, "stiff_spring", "default", {}),
     (RK4, 4, "stiff_spring", "underdamped", {}),
 ])
-def test_convergence_order(integrator, order, case, variant, over):
+def test_measured_convergence_order_is_declared_order(integrator, order, case, variant, over):
     """Least-squares slope over the case's halving dts (round-off and pre-asymptotic points
     dropped by the case's floor and ceiling); at least 3 points used."""
     c, p = _params(case, variant, **over)
@@ -135,7 +135,7 @@ def _spring_stable(integrator, y, energy_factor=1e4, periods=100):
 
 
 @pytest.mark.parametrize("integrator, theory", [(SE, 2.0), (VV, 2.0), (RK4, 2 * math.sqrt(2))])
-def test_stability_limit(integrator, theory):
+def test_measured_stability_limit_matches_theory(integrator, theory):
     """y = omega dt limits: 2 for kick-drift and velocity Verlet, 2 sqrt(2) for RK4. From rest,
     kick-drift's bounded energy peaks at E0 / (1 - y/2) (its modified energy is conserved), so
     the 1e4 E0 bound places its found limit at 2 (1 - 1e-4); above a limit the energy grows

@@ -184,7 +184,7 @@ def test_box_100_conserves_energy_and_momentum_over_1e4_steps():
     assert 1e-4 < stats["depth_max"] < 3 * 3e-3
 
 
-def test_box_1000_short_run():
+def test_box_1000_short_run_conserves_energy_and_momentum():
     row = _run("box_1000", duration=0.3)
     assert row["status"] == "ok" and row["within_tol"] and row["energy_drift"] < 1e-13
     assert row["momentum_drift"] < 1e-14 and row["penetration_max"] < 1e-12
@@ -347,7 +347,7 @@ def test_settings_report_contact_model_and_restitution_mapping():
     assert TAICHI.variants(c.scene(p)) == ("", "launch_per_step", "overlap_normal")
 
 
-def test_observe_shapes():
+def test_observe_gives_per_sphere_shapes_and_the_initial_spin():
     o = _sim("oblique_friction").observe()
     assert o["t"] == 0.0 and o["x"].shape == o["v"].shape == o["w"].shape == (2, 3)
     assert o["w"][0].tolist() == [0.0, 20.0, 0.0] and o["wall_impulse"].shape == (3,)
