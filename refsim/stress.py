@@ -53,34 +53,23 @@ from refsim import store
 from refsim.stress_report import atomic_csv, print_report
 from refsim.stress_store import store_run
 from refsim.integrators import get_integrator
-from refsim.stress_search import (ENERGY_FACTOR, Y_MAX, Y_MIN, Criterion, Spring, find_limit,
-                                  finite_time, refsim_equivalent, theory)
+from refsim.stress_search import ENERGY_FACTOR, Y_MAX, Y_MIN, Criterion, find_limit, finite_time, \
+    refsim_equivalent
+from refsim.stress_spec import Probe
+from refsim.stress_sweep import (DAMPED_FRACTION, LEGEND, QUICK_SPAN, RESET_WARNINGS,  # noqa
+                                 SWEEP_DT, SWEEP_K, SWEEP_NAMED, SWEEP_PERIODS, SWEEP_SPAN,
+                                 classify, observe_run, sweep_integrators, sweep_row,
+                                 sweep_steps, sweep_table)
 
 PERIODS, QUICK_PERIODS = 1000, 100
 TOL, QUICK_TOL = 1e-5, 1e-3  # bisection tolerance, relative to max(1, y)
-SWEEP_K = tuple(10.0 ** np.arange(1, 9))
-SWEEP_DT, SWEEP_PERIODS, SWEEP_SPAN, QUICK_SPAN = 1e-3, 20, 2.0, 0.5
-SWEEP_NAMED = ("symplectic_euler", "explicit_euler", "rk4", "implicit_euler", "discrete")
-DAMPED_FRACTION = 0.01
 MAX_PERIODS = 100_000
-# MuJoCo's warnings on which it resets to the initial pose (the adapter disables the reset
-# and reports the warning as Sim.failure)
-RESET_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
-LEGEND = {
-    "silent_reset": "the engine reported a state on which it silently resets (MuJoCo's bad "
-                    "qpos/qvel/qacc warning; the adapter turns the reset off and reports it), "
-                    "or the state returned bitwise to the initial one after E >= F E0",
-    "engine_failure": "the engine reported another breakdown (Sim.failure, e.g. refsim's "
-                      "Newton non-convergence)",
-    "nan_inf": "a non-finite position or velocity",
-    "energy_growth": f"energy >= F E0 = {ENERGY_FACTOR:g} E0 at some step, state finite",
-    "artificial_damping": f"none of the above, and energy < {DAMPED_FRACTION:.0%} of E0 at the "
-                          "end of the undamped run",
-    "none": "none of the above",
-}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--case", default=None,
+                        help="a case that declares its stability parameter (`stability(p)`); "
+                             "default: the stability-probe case, with the stiffness sweep")
     parser.add_argument("--engine", action="append",
                         help="engine (repeatable; default: every available engine)")
     parser.add_argument("--integrator", action="append",
@@ -98,11 +87,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args) -> int:
     opts = options(args)
     t0 = time.perf_counter()
-    spring = Spring()
+    spring = opts["probe"]
     st = store.RunStore.create(opts["out"], manifest(opts))
     limits = limits_table(opts, spring)
     atomic_csv(st.dir / "stress_limits.csv", limits)
-    sweep = sweep_table(opts)
+    sweep = sweep_table(opts) if opts["sweep"] else pd.DataFrame()
     atomic_csv(st.dir / "stress_sweep.csv", sweep)
     store_run(st, opts, spring, limits, sweep)
     st.update_manifest(status="complete", wall_s=round(time.perf_counter() - t0, 2))
@@ -117,14 +106,50 @@ def main(args) -> int:
 def options(args) -> dict:
     """Validated options; ValueError naming the parameter and its valid range otherwise."""
     quick = bool(getattr(args, "quick", False))
+    probe, is_default = _probe(getattr(args, "case", None))
     engines = _engines(getattr(args, "engine", None))
-    periods = _periods(getattr(args, "periods", None), QUICK_PERIODS if quick else PERIODS)
+    spec = probe.spec
+    periods = _periods(getattr(args, "periods", None),
+                       spec.quick_periods if quick else spec.periods)
     return {"engines": engines, "integrators": _integrators(getattr(args, "integrator", None),
                                                             engines),
-            "criterion": Criterion(periods), "tol": QUICK_TOL if quick else TOL,
+            "probe": probe, "sweep": is_default, "case": probe.case.name,
+            "criterion": criterion(spec, periods), "tol": QUICK_TOL if quick else TOL,
             "dt": _dt(getattr(args, "dt", None)), "quick": quick,
             "span": QUICK_SPAN if quick else SWEEP_SPAN,
             "out": Path(getattr(args, "out", None) or store.DEFAULT_ROOT)}
+
+
+def _probe(name):
+    """(Probe of the case, whether it is the default probe case); ValueError for a case that
+    is not registered or declares no stability parameter."""
+    from refsim.registry import case_names, get_case
+    from refsim.stress_search import probe_case
+    default = probe_case()
+    if name is None or name == default.name:
+        return Probe(default), True
+    known = case_names()
+    if name not in known:
+        raise ValueError(f"--case must be one of {known}, got {name!r}")
+    case = get_case(name)
+    if not callable(getattr(case, "stability", None)):
+        able = [n for n in known if callable(getattr(get_case(n), "stability", None))]
+        raise ValueError(f"--case {name!r} declares no stability parameter (no "
+                         f"`stability(p)`); cases that do: {able}")
+    return Probe(case), False
+
+
+def criterion(spec, periods) -> Criterion:
+    """The search criterion of a case's StabilitySpec at P periods."""
+    if spec.oscillator and spec.energy_floor == 0.0:
+        bound = ""  # the oscillator's own text: E < F E0
+    elif spec.oscillator:
+        bound = (f"the oscillation energy E - ({spec.energy_floor:.6g}) is < "
+                 f"{ENERGY_FACTOR:g} times its initial value")
+    else:
+        floor = "E(0)" if spec.energy_floor is None else f"{spec.energy_floor:.6g}"
+        bound = f"|E - {floor}| < {spec.energy_bound:.6g} J"
+    return Criterion(periods, cycle=spec.cycle, name=spec.name, bound_text=bound)
 
 
 def _engines(names):
@@ -183,15 +208,14 @@ def _dt(value):
 
 def manifest(opts) -> dict:
     from refsim.registry import get_engine
-    from refsim.stress_search import probe_case
     versions = {e: get_engine(e).version() for e in opts["engines"]}
     threads = os.environ.get("OMP_NUM_THREADS", "1")
-    probe = probe_case()
+    probe = opts["probe"].case
     env = store.environment(versions, {probe.name: probe.source_hash()},
                             int(threads) if threads.isdigit() else 1)
     return {"run_id": store.new_run_id(), "kind": "stress", "command": command(opts),
             "argv": sys.argv, "criterion": opts["criterion"].text(),
-            "options": {"engines": opts["engines"], "integrators": opts["integrators"],
+            "options": {"case": opts["case"], "engines": opts["engines"], "integrators": opts["integrators"],
                         "periods": opts["criterion"].periods, "tol": opts["tol"],
                         "sweep_dt": opts["dt"], "sweep_k": list(SWEEP_K),
                         "sweep_span_s": opts["span"], "quick": opts["quick"]},
@@ -199,7 +223,7 @@ def manifest(opts) -> dict:
 
 
 def command(opts) -> str:
-    parts = ["refsim", "stress"]
+    parts = ["refsim", "stress"] + ([] if opts["sweep"] else ["--case", opts["case"]])
     for e in opts["engines"]:
         parts += ["--engine", e]
     for i in opts["integrators"] or []:
@@ -213,12 +237,14 @@ def command(opts) -> str:
 # 1. Stability limits
 # --------------------------------------------------------------------------------------------
 def limit_jobs(opts, spring) -> tuple[list, list]:
-    """([(engine, integrator)] to search, ["engine integrator (why skipped)"]): fixed-step
-    integrators the engine supports on the spring, those of --integrator if given."""
+    """([(engine, formulation, integrator)] to search, ["engine integrator (why skipped)"]):
+    fixed-step integrators the engine supports on the probe's scene, those of --integrator if
+    given; every formulation where the spec asks for it (`StabilitySpec.formulations`)."""
     from refsim.registry import get_engine
     jobs, skipped = [], []
     for name in opts["engines"]:
         engine = get_engine(name)
+        forms = engine.formulations(spring.scene) if spring.spec.formulations else ("",)
         for integ in opts["integrators"] or engine.integrators:
             if integ.partition(":")[0] not in engine.integrators:
                 continue
@@ -228,7 +254,7 @@ def limit_jobs(opts, spring) -> tuple[list, list]:
             if why:
                 skipped.append(f"{name} {integ} ({why})")
             else:
-                jobs.append((engine, integ))
+                jobs += [(engine, form, integ) for form in forms]
     return jobs, skipped
 
 
@@ -236,27 +262,46 @@ def limits_table(opts, spring) -> pd.DataFrame:
     jobs, skipped = limit_jobs(opts, spring)
     for line in skipped:
         print(f"stress: skipped {line}", file=sys.stderr)
-    return pd.DataFrame([limit_row(e, i, spring, opts) for e, i in jobs])
+    return pd.DataFrame([limit_row(e, i, spring, opts, form) for e, form, i in jobs])
 
 
-def limit_row(engine, integrator, spring, opts) -> dict:
-    crit, tol = opts["criterion"], opts["tol"]
+def limit_theory(engine, integrator, spring, crit, variant=""):
+    """(refsim equivalent, theory, its reason, finite_time, resolution) of one job: the
+    case's theory from the equivalent stepper and the Sim's settings; for an oscillator the
+    criterion's exact landing (`finite_time`), else the spec's declared resolution."""
     eq = refsim_equivalent(engine, integrator)
     stepper = get_integrator(eq) if eq else None
-    th = theory(stepper) if stepper else math.nan
-    ft, res = finite_time(stepper, th, crit) if stepper else (math.nan, math.nan)
-    row = {"engine": engine.name, "integrator": integrator,
-           "as": eq if eq != integrator else "", "measured": math.nan, "theory": th,
-           "finite_time": ft, "resolution": res}
+    sim = engine.build(spring.scene, float(spring.spec.to_dt(1.0)), integrator, variant)
     try:
-        found = find_limit(engine, integrator, spring, crit, tol)
+        settings = sim.settings()
+    finally:
+        sim.close()
+    th, why = spring.spec.theory(stepper, settings)
+    if spring.spec.oscillator:
+        ft, res = finite_time(stepper, th, crit) if stepper and not math.isnan(th) else \
+            (math.nan, math.nan)
+    else:
+        ft, res = math.nan, spring.spec.resolution
+    return eq, float(th), why, ft, res
+
+
+def limit_row(engine, integrator, spring, opts, variant="") -> dict:
+    crit, tol = opts["criterion"], opts["tol"]
+    row = {"engine": engine.name, "engine_variant": variant, "integrator": integrator,
+           "measured": math.nan}
+    try:
+        eq, th, why, ft, res = limit_theory(engine, integrator, spring, crit, variant)
+        row.update({"as": eq if eq and eq != integrator else "", "theory": th,
+                    "theory_reason": why, "finite_time": ft, "resolution": res})
+        found = find_limit(engine, integrator, spring, crit, tol, variant)
     except Exception as exc:  # a failure is a row, never a crash of the run
-        return {**row, "agrees": False, "note": f"error: {type(exc).__name__}: {exc}"}
+        return {"theory": math.nan, "finite_time": math.nan, "resolution": math.nan, **row,
+                "agrees": False, "note": f"error: {type(exc).__name__}: {exc}"}
     row.update(measured=found.limit, agrees=agrees(found.limit, th, res, tol),
                evals=found.evaluations, batched=found.batched, seconds=round(found.seconds, 2))
-    print(f"stress: {engine.name} {integrator}: limit {found.limit:.7g} "
-          f"({found.seconds:.1f} s)", file=sys.stderr, flush=True)
-    return {**row, "note": limit_note(found, th, res)}
+    print(f"stress: {engine.name} {variant + ' ' if variant else ''}{integrator}: limit "
+          f"{found.limit:.7g} ({found.seconds:.1f} s)", file=sys.stderr, flush=True)
+    return {**row, "note": limit_note(found, th, res, spring.spec.oscillator)}
 
 
 def agrees(measured, th, res, tol):
@@ -267,11 +312,11 @@ def agrees(measured, th, res, tol):
     return bool(abs(measured - th) <= res + tol * max(1.0, th))
 
 
-def limit_note(found, th, res) -> str:
+def limit_note(found, th, res, oscillator=True) -> str:
     notes = []
     if th == 0:
         notes.append("unstable at every y (finite-time criterion)")
-    elif 0 < th < math.inf and res > 1e-2:
+    elif oscillator and 0 < th < math.inf and res > 1e-2:
         notes.append("criterion-limited (slow growth past the limit)")
     if math.isinf(found.limit):
         notes.append(f"stable to {Y_MAX:g}")
@@ -280,103 +325,3 @@ def limit_note(found, th, res) -> str:
     if found.fallback:
         notes.append("one Sim per y (array h fails)")
     return "; ".join(notes)
-
-
-# --------------------------------------------------------------------------------------------
-# 2. Stiffness sweep
-# --------------------------------------------------------------------------------------------
-def sweep_integrators(engine, requested=None):
-    """Default (symplectic Euler where offered, else the first) and the named ones offered."""
-    if requested:
-        return [i for i in requested if i.partition(":")[0] in engine.integrators]
-    default = "symplectic_euler" if "symplectic_euler" in engine.integrators \
-        else engine.integrators[0]
-    return [default] + [i for i in SWEEP_NAMED if i in engine.integrators and i != default]
-
-
-def sweep_table(opts, ks=SWEEP_K) -> pd.DataFrame:
-    from refsim.registry import get_engine
-    rows = []
-    for name in opts["engines"]:
-        engine = get_engine(name)
-        for integ in sweep_integrators(engine, opts["integrators"]):
-            rows += [sweep_row(engine, integ, k, opts["dt"], opts["span"]) for k in ks]
-    table = pd.DataFrame([r for r in rows if r is not None])
-    return table.astype({"at_step": "Int64"}) if len(table) else table
-
-
-def sweep_steps(spring, dt, span) -> int:
-    """min(20 periods, span) in steps of dt, at least one."""
-    return max(1, math.ceil(min(SWEEP_PERIODS * 2 * math.pi / spring.omega, span) / dt))
-
-
-def sweep_row(engine, integrator, k, dt, span) -> dict | None:
-    spring = Spring(stiffness=float(k))
-    if engine.supports(spring.scene, integrator) is not None:
-        return None
-    steps = sweep_steps(spring, dt, span)
-    row = {"engine": engine.name, "integrator": integrator, "k": float(k),
-           "y": spring.omega * dt, "dt": dt, "steps": steps}
-    try:
-        sim = engine.build(spring.scene, dt, integrator, "")
-        try:
-            events, ratio = observe_run(sim, spring, steps)
-            failure = sim.failure or ""
-        finally:
-            sim.close()
-    except Exception as exc:  # a failure is a row, never a crash of the run
-        return {**row, "failure": "error", "at_step": None, "energy_ratio": math.nan,
-                "detail": f"{type(exc).__name__}: {exc}"}
-    return {**row, **classify(events, ratio, failure)}
-
-
-def observe_run(sim, spring, steps) -> tuple[dict, float]:
-    """Step the whole run one step at a time; {event: first step} for "failure" (Sim.failure,
-    ends the run), "nan_inf" (ends it), "energy_growth" (E >= F E0) and "reset" (a bitwise
-    return to the initial state after energy_growth), and the last finite E / E0."""
-    events, ratio = {}, 1.0
-    for k in range(1, steps + 1):
-        sim.step(1)
-        o = sim.observe()
-        x, v = np.asarray(o["x"]).reshape(-1), np.asarray(o["v"]).reshape(-1)
-        if sim.failure:
-            events["failure"] = k
-            break
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v))):
-            events["nan_inf"] = k
-            break
-        if "energy_growth" in events and np.array_equal(x, spring.x0) and \
-                np.array_equal(v, spring.v0):
-            events["reset"] = k
-            break
-        ratio = float(spring.energy(x, v)[0]) / spring.e0
-        if ratio >= ENERGY_FACTOR:
-            events.setdefault("energy_growth", k)
-    return events, ratio
-
-
-def classify(events, ratio, failure="") -> dict:
-    """The run's label, most telling first: silent_reset, engine_failure, nan_inf,
-    energy_growth, artificial_damping, none (definitions in LEGEND)."""
-    grew = events.get("energy_growth")
-    before = f"energy >= {ENERGY_FACTOR:g} E0 from step {grew}" if grew else ""
-    if "failure" in events:
-        label = "silent_reset" if any(w in failure for w in RESET_WARNINGS) else \
-            "engine_failure"
-        return _label(label, events["failure"], math.nan, failure, before)
-    if "reset" in events:
-        return _label("silent_reset", events["reset"], ratio, "returned bitwise to the "
-                      "initial state", before)
-    if "nan_inf" in events:
-        return _label("nan_inf", events["nan_inf"], math.nan, "non-finite state", before)
-    if grew:
-        return _label("energy_growth", grew, ratio, "", "")
-    label = "artificial_damping" if ratio < DAMPED_FRACTION else "none"
-    return _label(label, None, ratio, "", "")
-
-
-def _label(failure, at, ratio, detail, before) -> dict:
-    return {"failure": failure, "at_step": at, "energy_ratio": ratio,
-            "detail": "; ".join(t for t in (detail, before) if t)}
-
-

@@ -32,6 +32,9 @@ def f_reason(crit: Criterion) -> str:
 def print_report(opts, spring, limits, sweep) -> None:
     from refsim import stress  # the sweep constants (stress imports this module)
     crit = opts["criterion"]
+    if not opts.get("sweep", True):
+        print_case_report(opts, spring, limits)
+        return
     print(f"Stability limits, y = omega dt. Criterion: {crit.text()}; "
           f"k = {spring.p['stiffness']:g} N/m, m = {spring.p['mass']:g} kg, rest length "
           f"{spring.p['rest_length']:g} m, A = {spring.p['amplitude']:g} m (the case's 0.1 m "
@@ -49,6 +52,25 @@ def print_report(opts, spring, limits, sweep) -> None:
         print(f"  {name}: {text}")
     if len(sweep):
         print(sweep_pivot(sweep).to_string())
+
+
+def print_case_report(opts, probe, limits) -> None:
+    """The limits of a case other than the probe case (no stiffness sweep)."""
+    spec, crit = probe.spec, opts["criterion"]
+    overrides = ", ".join(f"{k} = {v}" for k, v in probe.overrides.items())
+    print(f"Stability limits of {probe.case.name} ({overrides or 'default parameters'}), "
+          f"y = {spec.name}, dt = y x {spec.dt_unit:.6g} s. Criterion: {crit.text()}.")
+    print(f"Theory: {spec.source}.")
+    if spec.resolution_reason:
+        print(f"Resolution: {spec.resolution_reason}.")
+    print(f"Bisection tolerance {opts['tol']:g} x max(1, y); agrees: |measured - theory| <= "
+          "resolution + that tolerance.")
+    if len(limits):
+        shown = limits.drop(columns=[c for c in ("theory_reason",) if c in limits])
+        print(limits_text(shown))
+        reasons = dict.fromkeys(limits.get("theory_reason", pd.Series(dtype=str)).dropna())
+        for reason in reasons:
+            print(f"  theory: {reason}")
 
 
 def sweep_pivot(sweep: pd.DataFrame) -> pd.DataFrame:

@@ -2,7 +2,7 @@
 
 Scene: the case registered with the tag "stability_probe" (the undamped stiff spring: m = 1
 kg, k = 1e4 N/m, rest length 1 m, released from rest; it must offer `omega(p)`) with the
-amplitude A lowered from 0.1 m to SPRING_PARAMS' 1e-7 m, so that the spring stays linear
+amplitude A lowered from 0.1 m to 1e-7 m (its StabilitySpec params), so that it stays linear
 wherever the search goes. It is linear only while the mass stays
 on its side of the anchor: near y = 2 a stable symplectic Euler orbit from rest reaches
 E0 / (1 - y/2), |u| up to A / sqrt(2 - y) (10 A at y = 1.99: with A = 0.1 m the mass passes
@@ -44,28 +44,34 @@ STEPS_PER_PERIOD_CAP = 10  # at most 10 P steps
 Y_MIN, Y_MAX = 1e-3, 1e3
 GRID_PER_DECADE = 8
 ROUND_POINTS = 32  # y values per batched bisection round (the bracket shrinks 33-fold)
-SPRING_PARAMS = {"amplitude": 1e-7}
-PROBE_TAG = "stability_probe"  # the case whose oscillator the search runs
+PROBE_TAG = "stability_probe"  # the default case of `refsim stress` (with its sweep)
 
 
 @dataclass(frozen=True)
 class Criterion:
     periods: int
     factor: float = ENERGY_FACTOR
+    cycle: float = 2 * np.pi  # the y-length of one period (StabilitySpec.cycle)
+    name: str = "omega dt"
+    bound_text: str = ""  # the energy test in words, when not the oscillator's
 
     @property
     def max_steps(self) -> int:
-        return STEPS_PER_PERIOD_CAP * self.periods
+        """10 P steps for an oscillator: the cap binds below y = 2 pi / 10 whatever the cycle."""
+        return int(round(STEPS_PER_PERIOD_CAP * self.cycle / (2 * np.pi) * self.periods))
 
     def steps(self, y):
-        """Steps judged at y: P periods, at most 10 P steps (array in, array out)."""
-        n = np.minimum(np.ceil(self.periods * 2 * np.pi / np.asarray(y, float)), self.max_steps)
+        """Steps judged at y: P periods, at most max_steps (array in, array out)."""
+        n = np.minimum(np.ceil(self.periods * self.cycle / np.asarray(y, float)),
+                       self.max_steps)
         return n.astype(int)
 
     def text(self) -> str:
-        return (f"stable at y = omega dt when, at every step over {self.periods} periods (at "
-                f"most {self.max_steps} steps), the state is finite, the engine reports no "
-                f"failure, and the energy is < {self.factor:g} E0 (undamped spring, from rest)")
+        energy = self.bound_text or (f"the energy is < {self.factor:g} E0 (undamped "
+                                     "oscillator, from rest)")
+        return (f"stable at y = {self.name} when, at every step over {self.periods} periods "
+                f"of {self.cycle:.4g}/y steps (at most {self.max_steps} steps), the state is "
+                f"finite, the engine reports no failure, and {energy}")
 
 
 def probe_case():
@@ -75,22 +81,6 @@ def probe_case():
         if PROBE_TAG in get_case(name).tags:
             return get_case(name)
     raise ValueError(f"a case tagged {PROBE_TAG!r} must be installed for the stability search")
-
-
-class Spring:
-    """The probe case (an undamped spring) at fixed parameters: scene, omega, E0, batch energy."""
-
-    def __init__(self, **overrides):
-        self.case = probe_case()
-        self.p = self.case.variant_params("default", {**SPRING_PARAMS, **overrides})
-        self.scene = self.case.scene(self.p)
-        self.omega, self.e0 = float(self.case.omega(self.p)), self.case.energy_scale(self.p)
-        self.x0, self.v0 = self.scene.positions.reshape(-1), self.scene.velocities.reshape(-1)
-
-    def energy(self, x, v):
-        """Energy of each row of x, v (batch, 3), the case's own definition."""
-        obs = {"x": np.reshape(x, (-1, 1, 3)), "v": np.reshape(v, (-1, 1, 3))}
-        return self.case.energy(self.p, obs)
 
 
 # --------------------------------------------------------------------------------------------
@@ -234,38 +224,40 @@ def search_limit(evaluate, tol: float, first_chunk: int, round_points: int) -> t
     return float(lo), count
 
 
-def find_limit(engine, integrator: str, spring: Spring, criterion: Criterion,
-               tol: float) -> Found:
-    """The measured limit of one engine's integrator, batched where the engine allows it."""
+def find_limit(engine, integrator: str, spring, criterion: Criterion, tol: float,
+               variant: str = "") -> Found:
+    """The measured limit of one engine's integrator, batched where the engine and the
+    probe's spec allow it (`StabilitySpec.batch`)."""
     t0 = time.perf_counter()
-    evaluate, fallback = batch_evaluator(engine, integrator, spring, criterion)
+    evaluate, fallback = (batch_evaluator(engine, integrator, spring, criterion, variant)
+                          if spring.spec.batch else (None, ""))
     if evaluate is not None:
         n_grid = int(math.log10(Y_MAX / Y_MIN) * GRID_PER_DECADE) + 1
         limit, count = search_limit(evaluate, tol, n_grid, ROUND_POINTS)
     else:
-        limit, count = search_limit(sim_evaluator(engine, integrator, spring, criterion),
-                                    tol, 1, 1)
+        limit, count = search_limit(sim_evaluator(engine, integrator, spring, criterion,
+                                                  variant), tol, 1, 1)
     return Found(limit, count, time.perf_counter() - t0, evaluate is not None, fallback)
 
 
 # -- one Sim per y ----------------------------------------------------------------------------
-def breach(sim, spring: Spring, steps: int, factor: float) -> int | None:
+def breach(sim, probe, steps: int) -> int | None:
     """First step (observed one at a time) at which the criterion fails: an engine-reported
-    failure, a non-finite state (its energy is then not finite) or energy >= factor E0."""
-    bound = factor * spring.e0
+    failure, a non-finite state (its energy is then not finite) or |E - floor| >= the
+    probe's energy bound (Probe.within)."""
+    floor = probe.floor(sim.observe())
     for k in range(1, steps + 1):
         sim.step(1)
-        o = sim.observe()
-        if sim.failure or not spring.energy(o["x"], o["v"])[0] < bound:
+        if sim.failure or not probe.within(probe.observed_energy(sim.observe()), floor):
             return k
     return None
 
 
-def sim_evaluator(engine, integrator, spring, criterion):
+def sim_evaluator(engine, integrator, spring, criterion, variant=""):
     def stable(y):
-        sim = engine.build(spring.scene, y / spring.omega, integrator, "")
+        sim = engine.build(spring.scene, float(spring.spec.to_dt(y)), integrator, variant)
         try:
-            return breach(sim, spring, int(criterion.steps(y)), criterion.factor) is None
+            return breach(sim, spring, int(criterion.steps(y))) is None
         finally:
             sim.close()
     return lambda ys: np.array([stable(y) for y in ys], bool)
@@ -301,11 +293,11 @@ def batch_stepper(sim, spring):
     return stepper, ""
 
 
-def batch_evaluator(engine, integrator, spring, criterion):
+def batch_evaluator(engine, integrator, spring, criterion, variant=""):
     """(evaluate(ys) running every y as one vectorised oscillator batch, "") or (None, why);
     (None, "") for a Sim that does not expose the in-house stepper contract (`system` and
     `stepper`: the engine steps its own way, one Sim per y)."""
-    sim = engine.build(spring.scene, 1.0 / spring.omega, integrator, "")
+    sim = engine.build(spring.scene, 1.0 / spring.omega, integrator, variant)
     if getattr(sim, "system", None) is None or getattr(sim, "stepper", None) is None \
             or not hasattr(sim.stepper, "start"):
         sim.close()
@@ -328,16 +320,24 @@ def _judge_batch(system, stepper, spring, ys, criterion):
     n = criterion.steps(ys)
     state = stepper.start(system, 0.0, np.broadcast_to(spring.x0, (len(ys), 3)).copy(),
                           np.broadcast_to(spring.v0, (len(ys), 3)).copy(), h)
-    bound, failed = criterion.factor * spring.e0, np.zeros(len(ys), bool)
+    failed = np.zeros(len(ys), bool)
     finished = failed
     with np.errstate(all="ignore"):
         for k in range(1, int(n.max()) + 1):
             state = stepper.step(system, (k - 1) * h, state, h)
             energy = spring.energy(*stepper.output(system, k * h, state, h))
-            failed = failed | (~(energy < bound) & (k <= n))
+            failed = failed | (~spring.within(energy, spring.spec.energy_floor) & (k <= n))
             finished = (n <= k) & ~failed
             if finished.any() or failed.all():
                 break
     if not finished.any():
         return np.zeros(len(ys), bool)
     return (ys <= ys[finished].max()) & ~failed
+
+
+def __getattr__(name):
+    """`Spring`: the default probe (refsim.stress_spec.Probe; imported late, it imports this)."""
+    if name == "Spring":
+        from refsim.stress_spec import Probe
+        return Probe
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -26,10 +26,21 @@ import pandas as pd
 
 from refsim.figure_runs import base_row, definition, store_rows
 from refsim.stress_report import _power
-from refsim.stress_search import SPRING_PARAMS, Y_MAX
+from refsim.stress_search import Y_MAX
 
 LIMIT_VARIANT = "stability_limit"
-UNITS = "y = omega dt"
+UNITS = "y = omega dt"  # the probe case's; another case's spec names its own
+
+
+def probe_overrides(opts) -> dict:
+    """The case parameters the search overrides (the spec's params), {} without a probe."""
+    probe = opts.get("probe")
+    return dict(probe.overrides) if probe is not None else {}
+
+
+def units(opts) -> str:
+    probe = opts.get("probe")
+    return UNITS if probe is None or probe.spec.name == "omega dt" else f"y = {probe.spec.name}"
 SWEEP_NO_TOLERANCE = "no tolerance: the failure label (column failure) is the result"
 
 
@@ -40,12 +51,12 @@ def sweep_variant(k: float) -> str:
 
 
 def limit_params(opts) -> str:
-    return json.dumps({**SPRING_PARAMS, "periods": opts["criterion"].periods,
+    return json.dumps({**probe_overrides(opts), "periods": opts["criterion"].periods,
                        "bisection_tol": opts["tol"]})
 
 
 def sweep_params(opts, k: float) -> str:
-    return json.dumps({**SPRING_PARAMS, "stiffness": float(k), "span_s": opts["span"]})
+    return json.dumps({**probe_overrides(opts), "stiffness": float(k), "span_s": opts["span"]})
 
 
 # --------------------------------------------------------------------------------------------
@@ -77,6 +88,7 @@ def limit_row(limit: dict, opts, case: str, run_id: str, versions: dict) -> dict
     measured, th = float(limit.get("measured", math.nan)), float(limit["theory"])
     tolerance, why = limit_tolerance(th, float(limit["resolution"]), opts["tol"])
     row = base_row(run_id, case, LIMIT_VARIANT, limit["engine"], limit["integrator"],
+                   engine_variant=str(limit.get("engine_variant", "") or ""),
                    params=limit_params(opts))
     note = str(limit.get("note", ""))
     failed = note.startswith("error: ")
@@ -87,7 +99,8 @@ def limit_row(limit: dict, opts, case: str, run_id: str, versions: dict) -> dict
                finite_time=float(limit["finite_time"]),
                resolution=float(limit["resolution"]), note=note,
                search_s=float(limit.get("seconds", math.nan)),
-               **{c: limit[c] for c in ("as", "evals", "batched") if c in limit})
+               **{c: limit[c] for c in ("as", "evals", "batched", "theory_reason")
+                  if c in limit})
     return row
 
 
@@ -119,14 +132,14 @@ def sweep_row(run: dict, opts, case: str, run_id: str, versions: dict) -> dict:
 # Definitions
 # --------------------------------------------------------------------------------------------
 def limit_definition(opts, spring) -> dict:
-    crit = opts["criterion"]
+    crit, spec = opts["criterion"], spring.spec
+    overrides = ", ".join(f"{k} = {v}" for k, v in spring.overrides.items())
     return definition(
         spring.case.name, LIMIT_VARIANT,
-        f"largest stable y = omega dt of each fixed-step integrator on the undamped spring "
-        f"(k = {spring.p['stiffness']:g} N/m, m = {spring.p['mass']:g} kg, A = "
-        f"{spring.p['amplitude']:g} m), by bisection, against the theory from the stepper's "
-        f"declared family or tableau; {crit.text()}",
-        "|measured - theory| of the largest stable y", UNITS, spring.case.source_hash(),
+        f"largest stable y = {spec.name} of each fixed-step integrator on {spring.case.name} "
+        f"({overrides or 'default parameters'}), by bisection, against the theory: "
+        f"{spec.source}; {crit.text()}",
+        "|measured - theory| of the largest stable y", units(opts), spring.case.source_hash(),
         limit_params(opts), params={**spring.p, "periods": crit.periods,
                                     "bisection_tol": opts["tol"]},
         report_columns=["measured", "theory", "finite_time", "note"])

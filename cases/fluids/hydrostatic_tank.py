@@ -78,5 +78,72 @@ class HydrostaticTank(SPHTankCase):
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         return 0.05, "bed pressure within 5 % of rho0 g H after settling (issue 5)"
 
+    def stability(self, p):
+        """`refsim stress`: the CFL number y = c0 dt / h of the kick-drift-kick WCSPH step;
+        theory `kdk_cfl_limit` (von Neumann analysis of that step on the particle lattice).
+        A run is judged over P acoustic crossings of the tank (a / c0 each, so a/h / y steps)
+        and is stable while |E - E(0)| < divergence_factor x M g H / 2 (the case's own
+        divergence bound), the state finite."""
+        from refsim.stress_spec import StabilitySpec, integrator_family
+        limit = kdk_cfl_limit(p["smoothing"], p["delta"])
+
+        def theory(stepper, settings):
+            family = integrator_family(settings)
+            if family.startswith("kick-drift-kick"):
+                return limit, KDK_THEORY
+            return np.nan, f"no theory for the integrator family {family!r}"
+        return StabilitySpec(
+            name="CFL number c0 dt / h", dt_unit=p["smoothing"] * self.spacing(p) /
+            self.sound_speed(p), theory=theory, source=KDK_THEORY,
+            energy_bound=self.divergence_factor * self.energy_scale(p),
+            cycle=p["resolution"] / p["smoothing"], periods=200, quick_periods=50,
+            resolution=0.03 * limit, resolution_reason=KDK_RESOLUTION)
+
+
+KDK_THEORY = (
+    "von Neumann analysis of refsim.models.sph.WCSPH.step (kick-drift-kick, continuity "
+    "density drifted by the trapezoid, delta-SPH diffusion explicit) linearised about rest on "
+    "the infinite square lattice (p = c0^2 (rho - rho0)): a density wave e^{ik.x} obeys "
+    "R'' = -(c0 V |G(k)|)^2 R, G(k) = sum_j sin(k.r_j) grad W(r_j) (the SPH dispersion "
+    "relation; Morris 1996, Dehnen & Aly 2012), damped by the diffusion rate 2 delta h c0 V "
+    "sum_j -F(r_j) (1 - cos k.r_j); the limit is the largest c0 dt / h at which the 2x2 step "
+    "matrix of every k has spectral radius <= 1 (without diffusion omega dt <= 2, leapfrog's "
+    "limit)")
+KDK_RESOLUTION = (
+    "3 % of the theory: the analysis leaves out the artificial viscosity (alpha = 0.02), the "
+    "hydrostatic pre-pressure (p / rho0 c0^2 <= Mach^2 / 2), the walls and free surface (the "
+    "lattice is infinite there), and the finite-time criterion lands above a limit where the "
+    "growth per step is slow")
+
+
+def kdk_cfl_limit(smoothing: float, delta: float, k_points: int = 121) -> float:
+    """Largest c0 dt / h at which the linearised KDK step is stable for every lattice wave
+    (dx = 1, rho0 = c0 = 1; bisection to 1e-6); see KDK_THEORY."""
+    from refsim.models.sph import wendland_gradient_factor
+    reach = int(np.ceil(2 * smoothing)) + 1
+    grid = np.arange(-reach, reach + 1, dtype=float)
+    offsets = np.stack(np.meshgrid(grid, grid), -1).reshape(-1, 2)
+    dist = np.linalg.norm(offsets, axis=1)
+    offsets, dist = offsets[dist > 0], dist[dist > 0]
+    factor = wendland_gradient_factor(dist, smoothing)
+    k = np.linspace(0.0, np.pi, k_points)
+    waves = np.stack(np.meshgrid(k, k), -1).reshape(-1, 2)
+    phase = waves @ offsets.T
+    gradient = np.linalg.norm(np.sin(phase) @ (factor[:, None] * offsets), axis=1)
+    diffusion = 2.0 * delta * smoothing * ((1.0 - np.cos(phase)) @ -factor)
+
+    def stable(cfl):
+        a, b = cfl * smoothing * gradient, cfl * smoothing * diffusion  # omega dt, D dt
+        # (R, u) -> u+ = u + i a/2 R; R' = (1 - b) R + i a u+; u' = u+ + i a/2 R'
+        r_new = np.stack([(1 - b) - 0.5 * a * a, 1j * a], -1)
+        u_new = np.stack([0.5j * a * (2 - b) - 0.25j * a ** 3, 1 - 0.5 * a * a], -1)
+        radius = np.abs(np.linalg.eigvals(np.stack([r_new, u_new], -2))).max()
+        return radius <= 1.0 + 1e-12
+    lo, hi = 0.0, 4.0
+    while hi - lo > 1e-6:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    return lo
+
 
 CASE = HydrostaticTank()

@@ -127,6 +127,35 @@ class Pendulum(Case):
                          "integrator's error and the method's order")
         return 0.0, ""
 
+    def stability(self, p):
+        """`refsim stress`: y = omega0 dt on the small-amplitude pendulum (theta0 = 1e-3 rad,
+        sin theta = theta to 2e-7), stable while the oscillation energy E + m g L stays below
+        F times its initial m g L (1 - cos theta0). In generalized coordinates the motion is
+        theta'' = -omega0^2 theta, so the theory is the spring's per stepper; in maximal
+        coordinates the rod's constraint (multipliers with Baumgarte, a penalty spring,
+        impulses) brings its own dynamics and no theory is stated. Every engine formulation
+        is searched."""
+        from refsim.stress_spec import oscillator_spec
+        swing = 2.0 * p["mass"] * p["g"] * p["length"] * np.sin(0.5 * p["theta0"]) ** 2
+        return oscillator_spec(self.omega(p), -p["mass"] * p["g"] * p["length"], swing,
+                               "small-amplitude pendulum: theta'' = -omega0^2 theta in "
+                               "generalized coordinates, the linear oscillator's stability",
+                               {"theta0": 1e-3}, theory=pendulum_stability_theory,
+                               formulations=True)
+
+
+def pendulum_stability_theory(stepper, settings):
+    """The spring's limit where every formulation the Sim declares is in generalized
+    coordinates; NaN (with the reason) otherwise."""
+    from refsim.stress_spec import declared_formulations, stepper_theory
+    forms = declared_formulations(settings)
+    if forms and all("generalized coordinate" in form for form in forms):
+        limit, why = stepper_theory(stepper)
+        return limit, why + "; generalized coordinates: theta'' = -omega0^2 theta"
+    return np.nan, ("no theory: the formulation is not declared in generalized coordinates "
+                    f"({'; '.join(forms) or 'none declared'}): the rod's constraint adds its "
+                    "own dynamics")
+
 
 def period_sensitivity(theta0):
     """kappa = dlnT/dlnE at release angle theta0: with m = sin^2(theta0/2) = E/(2 m g L),

@@ -108,6 +108,16 @@ class StiffSpring(Case):
         return tol, (f"order {order}{', symplectic' if symplectic else ''}: {form}, the global "
                      "error bound of such a method after w0 t radians (see order_tolerance)")
 
+    def stability(self, p):
+        """`refsim stress`: y = omega dt on the undamped spring from rest, the amplitude lowered
+        from 0.1 m to 1e-7 m so that the mass never reaches the anchor and the spring stays
+        linear at every y searched (refsim.stress_search's docstring says why)."""
+        from refsim.stress_spec import oscillator_spec
+        return oscillator_spec(self.omega(p), 0.0, self.energy_scale(p),
+                               "linear stability of the stepper on u'' = -w0^2 u (Hairer, "
+                               "Lubich & Wanner 2006; Butcher 2016 for RK stability "
+                               "polynomials)", {"amplitude": 1e-7}, batch=True)
+
 
 def damped_oscillator(w0, zeta, u0, v0, t):
     """Exact (u, u') of u'' + 2 zeta w0 u' + w0^2 u = 0."""
