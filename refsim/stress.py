@@ -215,7 +215,8 @@ def manifest(opts) -> dict:
                             int(threads) if threads.isdigit() else 1)
     return {"run_id": store.new_run_id(), "kind": "stress", "command": command(opts),
             "argv": sys.argv, "criterion": opts["criterion"].text(),
-            "options": {"case": opts["case"], "engines": opts["engines"], "integrators": opts["integrators"],
+            "options": {"case": opts["case"], "engines": opts["engines"],
+                        "integrators": opts["integrators"],
                         "periods": opts["criterion"].periods, "tol": opts["tol"],
                         "sweep_dt": opts["dt"], "sweep_k": list(SWEEP_K),
                         "sweep_span_s": opts["span"], "quick": opts["quick"]},

@@ -9,7 +9,8 @@ E0 / (1 - y/2), |u| up to A / sqrt(2 - y) (10 A at y = 1.99: with A = 0.1 m the 
 the anchor there and the search found y = 1.99, not 2), and implicit Euler's Newton starts
 from the explicit-Euler predictor, which overshoots by y^2 A (with A = 0.1 m it passes the
 anchor at y = 3.3 and converges to the mirrored root x = -L0). With A = 1e-7 m both stay
-short of the anchor up to y = 3162. MuJoCo refuses springs whose exact motion reaches the anchor, so a tiny rest length is no option.
+short of the anchor up to y = 3162. MuJoCo refuses springs whose exact motion reaches the
+anchor, so a tiny rest length is no option.
 
 Criterion at y = omega dt (`Criterion`): a run is stable when, at every step over P periods
 (or 10 P steps, whichever is fewer: the cap binds only below y = 2 pi / 10 = 0.63, where only
