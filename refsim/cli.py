@@ -66,6 +66,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--jobs", default=str(min(2, os.cpu_count() or 1)),
                      help="worker processes, one thread each (default: min(2, cores)); "
                      "--jobs 1 for timings with nothing else running")
+    run.add_argument("--scheduler", default=None, help="run the jobs on the Dask cluster "
+                     "whose scheduler is at ADDRESS (e.g. tcp://10.0.0.5:8786)")
+    run.add_argument("--dask-workers", default=None, help="run the jobs on a local Dask "
+                     "cluster of N worker processes, one thread each")
+    run.add_argument("--timeout", default=None, help="seconds one job may take; past it the "
+                     "job is a `timeout` row and its worker is replaced (default: no limit)")
     bench = sub.add_parser("bench", help="speed benchmarks (registered under refsim.benches; "
                            "default: inhouse, the in-house engine on one core)")
     bench.add_argument("name", nargs="?", default="inhouse", help="bench name (refsim list)")
@@ -173,6 +179,7 @@ def cmd_run(args, argv) -> int:
     import time
     start = time.perf_counter()
     repeats = _positive_int("--repeats", args.repeats)
+    executor = _executor(args)  # its flags checked before anything is stored
     root = Path(args.out) if args.out else store.DEFAULT_ROOT
     if args.resume:
         st = store.RunStore.open(root / args.resume)
@@ -188,13 +195,14 @@ def cmd_run(args, argv) -> int:
         st = store.RunStore.create(root, _manifest(spec, argv, jobs))
     from refsim.definitions import for_jobs
     st.add_definitions(for_jobs(jobs))
-    workers = _positive_int("--jobs", args.jobs)
     table = runner.run_matrix(jobs, st, repeats=repeats, progress=progress_printer(),
-                              workers=workers)
+                              executor=executor)
+    workers = executor.workers
     wall = time.perf_counter() - start
     share = st.harness_s / st.busy_s if st.busy_s > 0 else 0.0
     st.update_manifest(status="complete", wall_s=wall, busy_s=st.busy_s,
-                       harness_s=st.harness_s, harness_overhead=share, workers=workers)
+                       harness_s=st.harness_s, harness_overhead=share, workers=workers,
+                       **{k: v for k, v in executor.describe().items() if k != "workers"})
     print_summary(table)
     if not args.no_report:
         from refsim.report import write_report
@@ -206,6 +214,28 @@ def cmd_run(args, argv) -> int:
           "setup, compilation, stepping and observation)")
     print(st.dir)
     return 0
+
+
+def _executor(args):
+    """Where the jobs run (refsim.executors): the local worker processes of --jobs, each job
+    isolated in its process, or a Dask cluster (--scheduler ADDRESS | --dask-workers N)."""
+    from refsim import executors
+    timeout = None
+    if args.timeout is not None:
+        try:
+            timeout = float(args.timeout)
+        except ValueError:
+            timeout = float("nan")
+        if not 0 < timeout < float("inf"):
+            raise ValueError(f"--timeout must be a number of seconds > 0, got {args.timeout!r}")
+    if args.scheduler and args.dask_workers:
+        raise ValueError("--scheduler and --dask-workers must not be given together: one "
+                         "names an existing cluster, the other starts a local one")
+    if args.scheduler or args.dask_workers:
+        workers = _positive_int("--dask-workers", args.dask_workers) if args.dask_workers \
+            else None
+        return executors.Dask(args.scheduler, workers, timeout)
+    return executors.Local(_positive_int("--jobs", args.jobs), timeout)
 
 
 def _manifest(spec, argv, jobs) -> dict:

@@ -105,9 +105,10 @@ def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep):
 # The matrix
 # ---------------------------------------------------------------------------------------------
 def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None,
-               workers=1) -> pd.DataFrame:
-    """Runs every job not yet in `store`, `workers` at a time (separate processes, each on
-    one BLAS/taichi thread), storing each row as it arrives; rows keep the jobs' order.
+               workers=1, executor=None) -> pd.DataFrame:
+    """Runs every job not yet in `store` on `executor` (refsim.executors: by default in this
+    process for one worker, else `Local(workers)`: separate processes, each on one
+    BLAS/taichi thread), storing each row as it arrives; rows keep the jobs' order.
     Leaves on the store `harness_s` (time outside engine calls, in the jobs and in this
     process between them) and `busy_s` (all the time spent on the jobs, summed over
     workers): the harness overhead is their ratio."""
@@ -117,7 +118,7 @@ def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None,
     todo = [j for j in jobs if row_key(asdict(j)) not in done]
     order = {row_key(asdict(j)): k for k, j in enumerate(jobs)}
     start, waited, fresh = time.perf_counter(), 0.0, []
-    results = _results(todo, run_id, repeats, budget_s, workers)
+    results = _results(todo, run_id, repeats, budget_s, executor or _executor(workers))
     for k in range(len(todo)):
         t0 = time.perf_counter()
         job, row = next(results)
@@ -129,6 +130,7 @@ def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None,
             store.add_series(row, trace)
         store.add(row)
         fresh.append(row)
+    results.close()
     if progress:
         progress(len(todo), len(todo), None)
     store.rows.sort(key=lambda r: order.get(row_key(r), len(order)))
@@ -140,22 +142,16 @@ def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None,
     return table
 
 
-def _work(args):
-    job, run_id, repeats, budget_s = args
-    return job, run_job(job, run_id, repeats, budget_s)
+def _executor(workers):
+    from refsim import executors
+    return executors.InProcess() if workers <= 1 else executors.Local(workers)
 
 
-def _results(todo, run_id, repeats, budget_s, workers):
-    """(job, row) pairs: in order on one worker; as they finish on several, the longest
-    jobs (fluids) first so that none is left running alone at the end."""
+def _results(todo, run_id, repeats, budget_s, executor):
+    """(job, row) pairs as the executor finishes them (see refsim.executors)."""
     tasks = [(j, run_id, repeats, budget_s) for j in todo]
-    if workers <= 1 or len(todo) <= 1:
-        yield from map(_work, tasks)
-        return
-    import multiprocessing as mp
-    tasks.sort(key=lambda t: -_job_size(t[0]))
-    with mp.get_context("spawn").Pool(workers, initializer=_worker_init) as pool:
-        yield from pool.imap_unordered(_work, tasks, chunksize=1)
+    if tasks:
+        yield from executor.results(tasks, size=_job_size)
 
 
 def _job_size(job) -> float:
@@ -165,12 +161,6 @@ def _job_size(job) -> float:
         return 0.0
     case = get_case(job.case)
     return case.work(case.variant_params(job.variant, dict(job.params)), job.dt)
-
-
-def _worker_init():
-    import os
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ[var] = "1"
 
 
 GROUP = ["case", "variant", "engine", "engine_variant", "integrator"]
