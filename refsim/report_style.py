@@ -148,7 +148,7 @@ def save(fig, path: Path, title: str) -> Path:
     """Suptitle, tight layout, and a palette PNG at DPI (a fraction of an RGBA PNG's size)."""
     from PIL import Image
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))  # room for the suptitle
     buffer = io.BytesIO()
     fig.savefig(buffer, dpi=DPI, format="png")
     _pyplot().close(fig)
