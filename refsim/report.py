@@ -1,17 +1,17 @@
 """`refsim report RUN_DIR`: report.md and a self-contained report.html from a stored run.
 
 Reads the store only (results.csv, manifest.json, series.jsonl and the cases as run,
-cases.json: description, units, energy scale, target error, figures); nothing is re-run. Per
-case and variant: the recommendation (the cheapest configuration reaching the target error), a
-compact table, measured against nominal orders where the case declares an order meaningful,
-and the figures: work-precision (error against run time, Pareto front marked), convergence
-(error against dt with fitted orders), energy against time at the reference dt, and the
-figures the case declares (e.g. the dam break's surge front over the experiment).
+cases.json: description, units, energy scale, target error, error floor, figures); nothing is
+re-run. First the overview (refsim.report_overview: the scoreboard of case/variant x engine and
+its heatmap), then per case and variant: the recommendation (the cheapest configuration
+reaching the target error), a compact table, measured against nominal orders where the case
+declares an order meaningful, and the figures (refsim.report_plots, small multiples styled by
+refsim.report_style): work-precision (error against run time, Pareto fronts), convergence
+(error against dt, fitted orders where meaningful), energy against time at the reference dt,
+and the figures the case declares (e.g. the dam break's surge front over the experiment).
 """
 from __future__ import annotations
 
-import base64
-import html
 import json
 import math
 from pathlib import Path
@@ -21,6 +21,9 @@ import pandas as pd
 
 from refsim import report_plots as plots
 from refsim.definitions import Definitions
+from refsim.report_overview import overview_blocks, truthy
+from refsim.report_render import render_html, render_markdown
+from refsim.report_style import Style
 
 ORDER_SLACK = 0.3  # |measured - nominal| within this: the measured order "matches"
 
@@ -62,10 +65,12 @@ def write_report(run_dir, target_error=None, out=None):
     manifest = json.loads((run_dir / "manifest.json").read_text())
     series = load_series(run_dir)
     definitions = Definitions.of_run(run_dir)
-    blocks = _header(manifest, table)
+    style = Style.of_table(table)
+    blocks = _header(manifest, table) + [("nav",)]
+    blocks += overview_blocks(table, definitions, target_error, out, style)
     for (case, variant), rows in table.groupby(["case", "variant"], sort=False):
         blocks += _case_section(definitions.of_row(rows.iloc[0]), rows, series, target_error,
-                                out)
+                                out, style)
     if definitions.legacy:
         blocks.insert(4, ("p", "This run was stored before runs kept their case definitions: "
                                "descriptions, units and figures come from today's code."))
@@ -85,6 +90,10 @@ def _fmt(value, spec=".3g") -> str:
 def _header(manifest, table):
     counts = table["status"].value_counts().to_dict()
     engines = ", ".join(f"{k} {v}" for k, v in manifest.get("engines", {}).items())
+    if "unresolved" in table:
+        unresolved = int(table["unresolved"].map(truthy).sum())
+        counts["ok"] = counts.get("ok", 0) - unresolved
+        counts["unresolved (ok, capped tolerance)"] = unresolved
     blocks = [("h1", f"refsim report: run {manifest.get('run_id', '?')}"),
               ("p", f"Command `{manifest.get('command', '?')}`, commit "
                     f"{str(manifest.get('git_commit', '?'))[:12]}, "
@@ -107,7 +116,7 @@ def _header(manifest, table):
     return blocks
 
 
-def _case_section(d, rows, series, target_error, out):
+def _case_section(d, rows, series, target_error, out, style=None):
     """One case x variant from its stored definition `d` (Case.definition)."""
     from refsim.store import row_key
     col, observable, units = d["tolerance_column"], d["observable"], d["units"]
@@ -119,26 +128,29 @@ def _case_section(d, rows, series, target_error, out):
     if math.isfinite(target):  # a definition with no target error gets no recommendation
         blocks.append(("p", recommendation(rows, col, units, target)))
     ran = rows[np.isfinite(rows["dt"])]
+    style = style or Style.of_table(rows)
+    meaningful = bool(d.get("order_meaningful", True))
+    floor = d.get("error_floor")
     figures = [
         plots.work_precision(ran, col, units, out / "plots" / f"{slug}-work.png",
-                             f"{title}: work-precision"),
+                             f"{title}: work-precision", style, floor),
         plots.convergence(ran, col, units, out / "plots" / f"{slug}-conv.png",
-                          f"{title}: convergence"),
+                          f"{title}: convergence", style, floor, show_orders=meaningful),
         plots.energy_history(ran, series, row_key, d["energy_scale"],
                              out / "plots" / f"{slug}-energy.png",
-                             f"{title}: energy at the reference dt"),
+                             f"{title}: energy at the reference dt", style),
     ]
     for k, spec in enumerate(d.get("figures", [])):
         draw = plots.FIGURES.get(spec.get("kind"))
         if draw is not None:
-            figures.append(draw(ran, series, row_key, spec,
-                                out / "plots" / f"{slug}-fig{k}.png", f"{title}: {spec['title']}"))
+            figures.append(draw(ran, series, row_key, spec, out / "plots" / f"{slug}-fig{k}.png",
+                                f"{title}: {spec['title']}", style))
     blocks += [("img", f, title) for f in figures if f is not None]
-    orders = order_table(ran) if d.get("order_meaningful", True) else pd.DataFrame()
+    orders = order_table(ran) if meaningful else pd.DataFrame()
     if len(orders):
         blocks += [("h3", "Measured against nominal order"), ("table", orders)]
-    blocks += [("h3", "Results"), ("table", compact_table(rows, col,
-                                                          d.get("report_columns", ())))]
+    blocks += [("h3", "Results"), ("table", compact_table(rows, col, d.get("report_columns", ()),
+                                                          orders=meaningful))]
     return blocks
 
 
@@ -173,23 +185,35 @@ def order_table(rows) -> pd.DataFrame:
         nominal, measured = r["nominal_order"], r["order"]
         verdict = "-" if not (np.isfinite(nominal) and np.isfinite(measured)) else (
             "matches" if abs(measured - nominal) <= ORDER_SLACK else "differs")
-        out.append({"engine": plots.line_label(r).rsplit(" ", 1)[0],
-                    "integrator": r["integrator"], "nominal": _fmt(nominal, "g"),
-                    "measured": _fmt(measured, ".2f"), "points": int(r["order_points"]),
-                    "verdict": verdict})
+        entry = {"engine": plots.line_label(r).rsplit(" ", 1)[0],
+                 "integrator": r["integrator"], "nominal": _fmt(nominal, "g"),
+                 "measured": _fmt(measured, ".2f")}
+        if "order_stderr" in r:
+            entry["stderr"] = _fmt(r["order_stderr"], ".2f")
+        entry.update({"points": int(r["order_points"]), "verdict": verdict})
+        if "order_note" in r:
+            note = r["order_note"]
+            entry["note"] = str(note) if isinstance(note, str) and note else "-"
+        out.append(entry)
     return pd.DataFrame(out)
 
 
-def compact_table(rows, col, extra=()) -> pd.DataFrame:
-    """One line per row; `extra`: further columns the stored definition asks to show."""
+def _row_status(r) -> str:
+    if r["status"] != "ok":
+        return f"{r['status']}: {r['reason']}"
+    if truthy(r.get("unresolved", False)):
+        return "ok, unresolved (capped tolerance)"
+    if np.isnan(float(r.get("tolerance", np.nan))):
+        return "ok (no tolerance)"
+    return "ok" if truthy(r["within_tol"]) else "ok, above tolerance !"
+
+
+def compact_table(rows, col, extra=(), orders=True) -> pd.DataFrame:
+    """One line per row; `extra`: further columns the stored definition asks to show; the
+    measured order only where the case declares one meaningful (`orders`)."""
     out = []
     for _, r in rows.iterrows():
-        if r["status"] == "ok" and np.isnan(float(r.get("tolerance", np.nan))):
-            status = "ok (no tolerance)"
-        elif r["status"] == "ok":
-            status = "ok" if r["within_tol"] in (True, "True") else "ok, above tolerance !"
-        else:
-            status = f"{r['status']}: {r['reason']}"
+        status = _row_status(r)
         out.append({"engine": plots.line_label(r).rsplit(" ", 1)[0] if r["integrator"] else
                     r["engine"], "integrator": r["integrator"] or "-",
                     "dt": _fmt(r["dt"]), col: _fmt(r[col], ".2e"),
@@ -197,7 +221,8 @@ def compact_table(rows, col, extra=()) -> pd.DataFrame:
                     "order": _fmt(r.get("order", np.nan), ".2f"),
                     "us/step": _fmt(r["us_per_step"]), "status": status,
                     **{c: _cell(r.get(c)) for c in extra}})
-    return pd.DataFrame(out)
+    table = pd.DataFrame(out)
+    return table if orders or table.empty else table.drop(columns="order")
 
 
 def _cell(value) -> str:
@@ -206,70 +231,3 @@ def _cell(value) -> str:
     if value is None or isinstance(value, (int, float)):
         return _fmt(value, ".4g")
     return str(value)
-
-
-# ---------------------------------------------------------------------------------------------
-# Rendering
-# ---------------------------------------------------------------------------------------------
-def _md_table(df: pd.DataFrame) -> str:
-    cells = [[str(c).replace("|", "\\|") for c in df.columns]]
-    cells += [[str(v).replace("|", "\\|") for v in row] for row in df.itertuples(index=False)]
-    lines = ["| " + " | ".join(r) + " |" for r in cells]
-    lines.insert(1, "|" + "|".join("---" for _ in df.columns) + "|")
-    return "\n".join(lines)
-
-
-def render_markdown(blocks, out: Path) -> str:
-    parts = []
-    for block in blocks:
-        kind = block[0]
-        if kind in ("h1", "h2", "h3"):
-            parts.append("#" * int(kind[1]) + " " + block[1])
-        elif kind == "p":
-            parts.append(block[1])
-        elif kind == "table":
-            parts.append(_md_table(block[1]))
-        elif kind == "img":
-            parts.append(f"![{block[2]}]({Path(block[1]).relative_to(out).as_posix()})")
-    return "\n\n".join(parts) + "\n"
-
-
-CSS = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;
-color:#222}h1{font-size:1.5em}h2{border-top:1px solid #ccc;padding-top:.8em;margin-top:2em}
-table{border-collapse:collapse;font-size:.8em;margin:.5em 0}td,th{border:1px solid #ddd;
-padding:2px 6px;text-align:right}th{background:#f3f3f3}td:nth-child(-n+2){text-align:left}
-img{max-width:100%;display:block;margin:.4em 0}nav a{margin-right:1em}code{background:#f5f5f5}"""
-
-
-def _inline(text: str) -> str:
-    """Markdown's `code` and **bold** in a paragraph, escaped for HTML."""
-    out = html.escape(text)
-    for mark, tag in (("**", "b"), ("`", "code")):
-        pieces = out.split(mark)
-        out = "".join(f"<{tag}>{s}</{tag}>" if k % 2 else s for k, s in enumerate(pieces))
-    return out
-
-
-def render_html(blocks, manifest) -> str:
-    body, toc = [], []
-    for block in blocks:
-        kind = block[0]
-        if kind == "h2":
-            anchor = f"s{len(toc)}"
-            toc.append(f'<a href="#{anchor}">{html.escape(block[1])}</a>')
-            body.append(f'<h2 id="{anchor}">{html.escape(block[1])}</h2>')
-        elif kind in ("h1", "h3"):
-            body.append(f"<{kind}>{html.escape(block[1])}</{kind}>")
-        elif kind == "p":
-            body.append(f"<p>{_inline(block[1])}</p>")
-        elif kind == "table":
-            body.append(block[1].to_html(index=False, border=0, escape=True))
-        elif kind == "img":
-            data = base64.b64encode(Path(block[1]).read_bytes()).decode()
-            body.append(f'<img alt="{html.escape(block[2])}" src="data:image/png;base64,'
-                        f'{data}">')
-    nav = f"<nav>{''.join(toc)}</nav>" if toc else ""
-    body.insert(min(len(body), 6), nav)
-    title = html.escape(f"refsim report {manifest.get('run_id', '')}")
-    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title>"
-            f"<style>{CSS}</style></head><body>{''.join(body)}</body></html>\n")

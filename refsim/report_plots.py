@@ -1,7 +1,10 @@
 """The report's figures, drawn from a stored run's table and time series (matplotlib, Agg).
 
 Each function takes the rows of one case variant and writes one PNG, returning its path, or
-None when there is nothing to draw (no `ok` row, no stored series).
+None when there is nothing to draw (no `ok` row, no stored series). Every figure is small
+multiples (refsim.report_style.panels: at most MAX_SERIES series per axes), colours by engine
+and markers by integrator from one `Style` shared by the whole report; errors at or below the
+case's error floor (0 included) are drawn on the labelled "exact to round-off" band.
 """
 from __future__ import annotations
 
@@ -10,15 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-DPI = 100
-SIZE = (10.0, 4.6)  # the legend sits right of the axes
-
-
-def _pyplot():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+from refsim import report_style as rs
 
 
 def line_label(row) -> str:
@@ -26,12 +21,12 @@ def line_label(row) -> str:
     return f"{row['engine']}{':' + ev if ev else ''} {row['integrator']}"
 
 
-def _lines(rows: pd.DataFrame, column: str):
-    """(label, sub-table sorted by dt) per engine x formulation x integrator with >= 1 finite,
-    positive value in `column`."""
-    ok = rows[(rows["status"] == "ok") & np.isfinite(rows[column]) & (rows[column] > 0)]
-    for key, sub in ok.groupby(["engine", "engine_variant", "integrator"], sort=False):
-        yield line_label(sub.iloc[0]), sub.sort_values("dt")
+def _series(rows: pd.DataFrame, column: str) -> list[tuple]:
+    """[(engine, formulation, integrator, sub-table sorted by dt)] over `ok` rows with a finite
+    value >= 0 in `column` (0, exact to round-off, is kept: it goes on the band)."""
+    ok = rows[(rows["status"] == "ok") & np.isfinite(rows[column]) & (rows[column] >= 0)]
+    return [(*key, sub.sort_values("dt")) for key, sub in
+            ok.groupby(["engine", "engine_variant", "integrator"], sort=False)]
 
 
 def pareto_front(err: np.ndarray, cost: np.ndarray) -> np.ndarray:
@@ -45,55 +40,77 @@ def pareto_front(err: np.ndarray, cost: np.ndarray) -> np.ndarray:
     return np.asarray(front, int)
 
 
-def _finish(fig, ax, path: Path, title: str) -> Path:
-    ax.set_title(title, fontsize=10)
-    ax.grid(True, which="both", alpha=0.25)
-    handles, _ = ax.get_legend_handles_labels()
-    if handles:
-        ax.legend(fontsize=6.5, ncol=1 + len(handles) // 24, loc="upper left",
-                  bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
-    _pyplot().close(fig)
-    return path
-
-
-def work_precision(rows, err_col, units, path: Path, title: str):
-    """Error (log x) against run time to t_end (log y), one line per engine and integrator
-    across the dt sweep; the Pareto front over every point drawn as a black step line."""
-    timed = rows[np.isfinite(rows["step_s"]) & (rows["step_s"] > 0)]
-    lines = list(_lines(timed, err_col))
-    if not lines:
-        return None
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=SIZE)
-    for label, sub in lines:
-        ax.loglog(sub[err_col], sub["step_s"], "o-", ms=3, lw=1, label=label)
-    pts = pd.concat([sub for _, sub in lines])
-    err, cost = pts[err_col].to_numpy(float), pts["step_s"].to_numpy(float)
+def _draw_front(ax, err, cost, floor, **kwargs) -> None:
     front = pareto_front(err, cost)
-    ax.step(err[front], cost[front], "k--", where="post", lw=1.2, label="Pareto front")
-    ax.plot(err[front], cost[front], "ks", mfc="none", ms=7)
-    ax.set_xlabel(f"{err_col} ({units})")
-    ax.set_ylabel("run time to t_end (s)")
-    return _finish(fig, ax, path, title)
+    ax.step(rs.on_band(err[front], floor), cost[front], where="post", **kwargs)
 
 
-def convergence(rows, err_col, units, path: Path, title: str):
-    """Error against dt (log-log), the legend giving each line's fitted order."""
-    lines = [(lab, sub) for lab, sub in _lines(rows, err_col) if sub["dt"].nunique() > 1]
-    if not lines:
+def _fronts_panel(ax, series, err_col, floor, style) -> None:
+    """Each engine's Pareto front in its colour; the overall front black dashed."""
+    points = pd.concat([s[3] for s in series])
+    for engine, sub in points.groupby("engine", sort=False):
+        _draw_front(ax, sub[err_col].to_numpy(float), sub["step_s"].to_numpy(float), floor,
+                    color=style.colour(engine), lw=1.4, marker="o", ms=3, label=engine)
+    err, cost = points[err_col].to_numpy(float), points["step_s"].to_numpy(float)
+    _draw_front(ax, err, cost, floor, color="k", ls="--", lw=1.0, label="all engines")
+    front = pareto_front(err, cost)
+    ax.plot(rs.on_band(err[front], floor), cost[front], "ks", mfc="none", ms=6)
+
+
+def work_precision(rows, err_col, units, path: Path, title: str, style=None, floor=None):
+    """Error (log x) against run time to t_end (log y): a first panel of each engine's Pareto
+    front (and the overall one), then per engine one line per formulation and integrator
+    across the dt sweep."""
+    style = style or rs.Style.of_table(rows)
+    timed = rows[np.isfinite(rows["step_s"]) & (rows["step_s"] > 0)]
+    series = _series(timed, err_col)
+    if not series:
         return None
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=SIZE)
-    for label, sub in lines:
-        order = sub["order"].iloc[0] if "order" in sub else np.nan
-        tag = f" (p={order:.2f})" if np.isfinite(order) else ""
-        ax.loglog(sub["dt"], sub[err_col], "o-", ms=3, lw=1, label=label + tag)
-    ax.set_xlabel("dt (s)")
-    ax.set_ylabel(f"{err_col} ({units})")
-    return _finish(fig, ax, path, title)
+    floor = rs.floor_of(floor, timed[err_col])
+    facets = rs.panels(series)
+    fig, axes = rs.grid_figure(1 + len(facets))
+    _fronts_panel(axes[0], series, err_col, floor, style)
+    rs.finish_axes(axes[0], "Pareto fronts")
+    for ax, (name, members) in zip(axes[1:], facets):
+        for engine, form, integrator, sub in members:
+            ax.plot(rs.on_band(sub[err_col], floor), sub["step_s"],
+                    label=integrator + (f" [{form}]" if form and form not in name else ""),
+                    **style.line_kwargs(engine, integrator))
+        rs.finish_axes(ax, name)
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        rs.draw_band(ax, floor, "x")
+        ax.set_xlabel(f"{err_col} ({units})", fontsize=7)
+        ax.set_ylabel("run time to t_end (s)", fontsize=7)
+    return rs.save(fig, path, title)
+
+
+def convergence(rows, err_col, units, path: Path, title: str, style=None, floor=None,
+                show_orders=True):
+    """Error against dt (log-log) per engine; the legend gives each line's fitted order when
+    the case declares an order meaningful (`show_orders`)."""
+    style = style or rs.Style.of_table(rows)
+    series = [s for s in _series(rows, err_col) if s[3]["dt"].nunique() > 1]
+    if not series:
+        return None
+    floor = rs.floor_of(floor, rows[err_col])
+    facets = rs.panels(series)
+    fig, axes = rs.grid_figure(len(facets))
+    for ax, (name, members) in zip(axes, facets):
+        for engine, form, integrator, sub in members:
+            order = sub["order"].iloc[0] if "order" in sub else np.nan
+            tag = f" (p={order:.2f})" if show_orders and np.isfinite(order) else ""
+            form_tag = f" [{form}]" if form and form not in name else ""
+            ax.plot(sub["dt"], rs.on_band(sub[err_col], floor),
+                    label=integrator + form_tag + tag, **style.line_kwargs(engine, integrator))
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        rs.draw_band(ax, floor, "y")
+        ax.set_xlabel("dt (s)", fontsize=7)
+        ax.set_ylabel(f"{err_col} ({units})", fontsize=7)
+        rs.finish_axes(ax, name)
+    return rs.save(fig, path, title)
 
 
 def _traced(rows, series: dict, key_of, field: str):
@@ -104,49 +121,63 @@ def _traced(rows, series: dict, key_of, field: str):
             yield row, trace
 
 
-def energy_history(rows, series: dict, key_of, scale: float, path: Path, title: str):
+def _traced_panels(rows, series, key_of, field):
+    """Small multiples of the rows holding a stored `field` series, as for the sweeps."""
+    traced = [(r["engine"], r["engine_variant"], r["integrator"], (r, t))
+              for r, t in _traced(rows, series, key_of, field)]
+    return rs.panels(traced) if traced else []
+
+
+def energy_history(rows, series: dict, key_of, scale: float, path: Path, title: str,
+                   style=None):
     """|E(t) - E(0)| / energy scale at the reference dt (log scale, round-off floored at
-    1e-16), one line per engine and integrator."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=SIZE)
-    drawn = 0
-    for row, trace in _traced(rows, series, key_of, "energy"):
-        e = np.asarray(trace["energy"], float)
-        ax.semilogy(trace["t"][1:], np.maximum(np.abs(e[1:] - e[0]) / scale, 1e-16), lw=1,
-                    label=line_label(row))
-        drawn += 1
-    if not drawn:
-        plt.close(fig)
+    1e-16), one line per engine and integrator, small multiples by engine."""
+    style = style or rs.Style.of_table(rows)
+    facets = _traced_panels(rows, series, key_of, "energy")
+    if not facets:
         return None
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("|E(t) - E(0)| / energy scale")
-    return _finish(fig, ax, path, title)
+    fig, axes = rs.grid_figure(len(facets))
+    for ax, (name, members) in zip(axes, facets):
+        for engine, form, integrator, (row, trace) in members:
+            e = np.asarray(trace["energy"], float)
+            kwargs = {**style.line_kwargs(engine, integrator),
+                      "markevery": max(1, len(e) // 8)}
+            ax.semilogy(trace["t"][1:], np.maximum(np.abs(e[1:] - e[0]) / scale, 1e-16),
+                        label=integrator + (f" [{form}]" if form and form not in name else ""),
+                        **kwargs)
+        ax.set_xlabel("t (s)", fontsize=7)
+        ax.set_ylabel("|E(t) - E(0)| / energy scale", fontsize=7)
+        rs.finish_axes(ax, name)
+    return rs.save(fig, path, title)
 
 
-def trace_over_data(rows, series: dict, key_of, spec: dict, path: Path, title: str):
+def trace_over_data(rows, series: dict, key_of, spec: dict, path: Path, title: str,
+                    style=None):
     """A case's declared figure (Case.figures, kind "trace_over_data"): each row's stored
     series spec["y"] against spec["x"] (shifted by the row's spec["x_shift_column"] when
-    given), over the measured points spec["data"]."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=SIZE)
-    drawn = 0
-    column = spec.get("x_shift_column")
-    for row, trace in _traced(rows, series, key_of, spec["y"]):
-        shift = float(row.get(column, 0.0)) if column else 0.0
-        shift = 0.0 if not np.isfinite(shift) else shift
-        label = line_label(row)
-        if column:
-            label += f" (shift {shift:+.2f}, RMS {row['err_rms']:.3f})"
-        ax.plot(np.asarray(trace[spec["x"]]) + shift, trace[spec["y"]], lw=1.2, label=label)
-        drawn += 1
-    if not drawn:
-        plt.close(fig)
+    given), over the measured points spec["data"]; small multiples by engine."""
+    style = style or rs.Style.of_table(rows)
+    facets = _traced_panels(rows, series, key_of, spec["y"])
+    if not facets:
         return None
-    data = spec["data"]
-    ax.plot(data["x"], data["y"], "ko", ms=4, mfc="none", label=data["label"])
-    ax.set_xlabel(spec["x_label"])
-    ax.set_ylabel(spec["y_label"])
-    return _finish(fig, ax, path, title)
+    column, data = spec.get("x_shift_column"), spec["data"]
+    fig, axes = rs.grid_figure(len(facets))
+    for ax, (name, members) in zip(axes, facets):
+        for engine, form, integrator, (row, trace) in members:
+            shift = float(row.get(column, 0.0)) if column else 0.0
+            shift = 0.0 if not np.isfinite(shift) else shift
+            label = line_label(row)
+            if column:
+                label += f" (shift {shift:+.2f}, RMS {row['err_rms']:.3f})"
+            kwargs = {**style.line_kwargs(engine, integrator), "lw": 1.2,
+                      "markevery": max(1, len(trace[spec["y"]]) // 8)}
+            ax.plot(np.asarray(trace[spec["x"]]) + shift, trace[spec["y"]], label=label,
+                    **kwargs)
+        ax.plot(data["x"], data["y"], "ko", ms=4, mfc="none", label=data["label"])
+        ax.set_xlabel(spec["x_label"], fontsize=7)
+        ax.set_ylabel(spec["y_label"], fontsize=7)
+        rs.finish_axes(ax, name)
+    return rs.save(fig, path, title)
 
 
 FIGURES = {"trace_over_data": trace_over_data}  # the kinds a case may declare

@@ -1,0 +1,160 @@
+"""How the report's figures look: one colour per engine, one marker and line style per
+integrator, small multiples of at most MAX_SERIES series, the "exact to round-off" band, and
+compact self-contained PNGs (palette images at a modest dpi).
+
+The palette is computed from the run's own engines and integrators (sorted names), so one
+engine keeps its colour in every figure of a report and no engine name is written here.
+"""
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+DPI = 72
+MAX_SERIES = 10  # series per axes at most
+PANEL = (4.2, 3.0)  # inches per small multiple
+COLUMNS = 3  # small multiples per figure row
+PALETTE_COLOURS = 48  # colours of the quantised PNG (octree: rare engine colours kept)
+ENGINE_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b",
+                  "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
+MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*", "<", ">", "h", "p")
+LINE_STYLES = ("-", "--", ":", "-.")
+FLOOR_LABEL = "exact to round-off"
+BAND_DECADES = 2.0  # the band spans this many decades below the error floor
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+@dataclass
+class Style:
+    """Colours keyed by engine, (marker, line style) keyed by integrator."""
+    engines: list = field(default_factory=list)
+    integrators: list = field(default_factory=list)
+
+    @classmethod
+    def of_table(cls, table) -> "Style":
+        names = lambda col: sorted({str(v) for v in table[col] if str(v)})  # noqa: E731
+        return cls(names("engine"), names("integrator"))
+
+    def colour(self, engine: str) -> str:
+        if engine not in self.engines:
+            self.engines.append(engine)
+        return ENGINE_COLOURS[self.engines.index(engine) % len(ENGINE_COLOURS)]
+
+    def marker(self, integrator: str) -> tuple[str, str]:
+        """(marker, line style): unique for up to len(MARKERS) x len(LINE_STYLES) names."""
+        if integrator not in self.integrators:
+            self.integrators.append(integrator)
+        k = self.integrators.index(integrator)
+        return MARKERS[k % len(MARKERS)], LINE_STYLES[(k // len(MARKERS)) % len(LINE_STYLES)]
+
+    def line_kwargs(self, engine: str, integrator: str) -> dict:
+        marker, ls = self.marker(integrator)
+        return {"color": self.colour(engine), "marker": marker, "ls": ls, "ms": 3.5, "lw": 1.0}
+
+
+def engine_label(engine: str, formulation: str) -> str:
+    return f"{engine}:{formulation}" if formulation else engine
+
+
+def panels(series: list) -> list[tuple[str, list]]:
+    """Small multiples: [(title, series)] with at most MAX_SERIES series each. `series` holds
+    (engine, formulation, ...) tuples; an engine with few series gets one panel, a larger one a
+    panel per formulation, split into balanced chunks when still too many."""
+    out = []
+    for engine in _unique(s[0] for s in series):
+        mine = [s for s in series if s[0] == engine]
+        if len(mine) <= MAX_SERIES:
+            out.append((engine, mine))
+            continue
+        for form in _unique(s[1] for s in mine):
+            part = [s for s in mine if s[1] == form]
+            chunks = math.ceil(len(part) / MAX_SERIES)
+            size = math.ceil(len(part) / chunks)
+            for k in range(chunks):
+                tag = f" ({k + 1}/{chunks})" if chunks > 1 else ""
+                out.append((engine_label(engine, form) + tag, part[k * size:(k + 1) * size]))
+    return out
+
+
+def _unique(values) -> list:
+    return list(dict.fromkeys(values))
+
+
+def floor_of(floor, errors) -> float:
+    """The error floor to draw: the case's, or (none declared) a decade below the smallest
+    positive error, 1e-16 when there is none."""
+    if floor is not None and np.isfinite(floor) and floor > 0:
+        return float(floor)
+    err = np.asarray(errors, float)
+    positive = err[np.isfinite(err) & (err > 0)]
+    return float(positive.min() / 10) if positive.size else 1e-16
+
+
+def on_band(errors, floor: float) -> np.ndarray:
+    """Errors at or below `floor` (0 included) moved into the band's middle; others kept."""
+    err = np.asarray(errors, float)
+    return np.where(err <= floor, floor * 10 ** (-BAND_DECADES / 2), err)
+
+
+def draw_band(ax, floor: float, axis: str) -> None:
+    """The labelled band [floor / 10^BAND_DECADES, floor] along `axis` ("x" or "y")."""
+    low = floor * 10 ** -BAND_DECADES
+    span = ax.axvspan if axis == "x" else ax.axhspan
+    span(low, floor, color="#d0d0d0", lw=0, zorder=0)
+    get, put = (ax.get_xlim, ax.set_xlim) if axis == "x" else (ax.get_ylim, ax.set_ylim)
+    lo, hi = get()  # the band stays visible beside data that all sits on it
+    put(min(lo, low), max(hi, floor * 10 ** BAND_DECADES))
+    mid = floor * 10 ** (-BAND_DECADES / 2)
+    if axis == "x":
+        ax.text(mid, 0.5, FLOOR_LABEL, rotation=90, ha="center", va="center", fontsize=6.5,
+                color="#555555", transform=ax.get_xaxis_transform())
+    else:
+        ax.text(0.5, mid, FLOOR_LABEL, ha="center", va="center", fontsize=6.5,
+                color="#555555", transform=ax.get_yaxis_transform())
+
+
+def grid_figure(count: int):
+    """(figure, flat list of `count` axes) laid out COLUMNS wide; spare axes removed."""
+    plt = _pyplot()
+    cols = min(COLUMNS, count)
+    rows = math.ceil(count / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(PANEL[0] * cols, PANEL[1] * rows),
+                             squeeze=False)
+    flat = list(axes.ravel())
+    for ax in flat[count:]:
+        fig.delaxes(ax)
+    return fig, flat[:count]
+
+
+def finish_axes(ax, title: str, legend: bool = True) -> None:
+    ax.set_title(title, fontsize=8.5)
+    ax.grid(True, which="both", alpha=0.25)
+    ax.tick_params(labelsize=7)
+    if legend and ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=6, frameon=False, loc="best")
+
+
+def save(fig, path: Path, title: str) -> Path:
+    """Suptitle, tight layout, and a palette PNG at DPI (a fraction of an RGBA PNG's size)."""
+    from PIL import Image
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.3 / fig.get_figheight()))  # room for the suptitle
+    buffer = io.BytesIO()
+    fig.savefig(buffer, dpi=DPI, format="png")
+    _pyplot().close(fig)
+    buffer.seek(0)
+    image = Image.open(buffer).convert("RGB").quantize(
+        PALETTE_COLOURS, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    image.save(path, format="PNG", optimize=True)
+    return path
