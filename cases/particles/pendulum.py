@@ -126,6 +126,14 @@ class Pendulum(Case):
 
     @staticmethod
     def _formulation_error(p, engine_variant, settings):
+        inertia = (settings or {}).get("point_inertia")  # kg m^2 an engine gives the bob
+        if inertia:
+            share = inertia / (p["mass"] * p["length"] ** 2)
+            w_t = np.sqrt(p["g"] / p["length"]) * p["duration"]
+            return p["theta0"] * w_t * share / 2, (
+                f"; plus the bob's own inertia I = {inertia:g} kg m^2: (m L^2 + I) theta'' "
+                f"slows w0 by I / (2 m L^2) = {share / 2:.2g}, a phase error theta0 w0 t "
+                "I / (2 m L^2) (dt-independent)")
         ratio = (settings or {}).get("penalty_ratio")
         if ratio:
             stretch = 1.0 + 2.0 * (1.0 - np.cos(p["theta0"]))

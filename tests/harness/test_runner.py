@@ -142,3 +142,15 @@ def test_summary_counts_unresolved_rows_apart():
     assert "9.0e-02?" in text and "1.0e-02!" in text and "1.0e-06 " in text
     assert text.strip().splitlines()[-1] == ("4 rows: ok 3 (within tolerance 1, above "
                                              "tolerance 1, unresolved 1), diverged 1")
+
+
+def test_pendulum_bound_counts_an_engines_point_inertia():
+    # a bob of inertia I on a rod: (m L^2 + I) theta'' slows w0 by I / (2 m L^2); MuJoCo's
+    # 1e-12 kg m^2 gives 1.4e-11 rad at any dt (its RK4 floor on the default swing)
+    from refsim.registry import get_case
+    case = get_case("pendulum")
+    p = case.variant_params("default")
+    plain, _ = case.tolerance(p, "rk4", 4, 1e-4, "", {})
+    with_inertia, why = case.tolerance(p, "rk4", 4, 1e-4, "", {"point_inertia": 1e-12})
+    assert with_inertia - plain == pytest.approx(1.0 * np.sqrt(9.81) * 10.0 * 0.5e-12)
+    assert "bob's own inertia I = 1e-12 kg m^2" in why
