@@ -5,6 +5,7 @@ naming the parameter and the valid values, and exits with code 2.
 """
 from __future__ import annotations
 
+import math
 import os
 import sys
 
@@ -62,6 +63,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--repeats", default="3", help="timing repeats (>= 1)")
     run.add_argument("--resume", default=None, help="finish the interrupted run RUN_ID")
     run.add_argument("--threads", default="1", help="BLAS/OpenMP threads (>= 1)")
+    run.add_argument("--max-steps", default=None, help="bound on the steps of one run "
+                     "(default 1e8: longer runs take hours and drown in round-off)")
     run.add_argument("--no-report", action="store_true", help="skip writing the report")
     run.add_argument("--jobs", default=str(min(2, os.cpu_count() or 1)),
                      help="worker processes, one thread each (default: min(2, cores)); "
@@ -151,6 +154,18 @@ def _positive_int(name, value):
     return int(value)
 
 
+def _step_bound(value):
+    """--max-steps: an integer >= 1, written as digits or as 1e9."""
+    try:
+        bound = float(value)
+    except (TypeError, ValueError):
+        bound = math.nan
+    if not (math.isfinite(bound) and bound >= 1 and bound == int(bound)):
+        raise ValueError(f"--max-steps must be an integer >= 1 (e.g. 1000000000 or 1e9), "
+                         f"got {value!r}")
+    return int(bound)
+
+
 def _params(specs, cases):
     from refsim.registry import get_case
     out = {}
@@ -179,7 +194,8 @@ def cmd_run(args, argv) -> int:
     import time
     start = time.perf_counter()
     repeats = _positive_int("--repeats", args.repeats)
-    executor = _executor(args)  # its flags checked before anything is stored
+    _positive_int("--threads", args.threads)  # pinned before numpy loaded (_pin_threads)
+    executor = _executor(args)  # its flags (and --jobs) checked before anything is stored
     root = Path(args.out) if args.out else store.DEFAULT_ROOT
     if args.resume:
         st = store.RunStore.open(root / args.resume)
@@ -190,6 +206,8 @@ def cmd_run(args, argv) -> int:
                 "full": args.full,
                 "variants": args.variant}
         spec["params"] = _params(args.param, spec["cases"])
+        if args.max_steps is not None:
+            spec["max_steps"] = _step_bound(args.max_steps)
     jobs = runner.expand(**spec)
     if not args.resume:
         st = store.RunStore.create(root, _manifest(spec, argv, jobs))

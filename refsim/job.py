@@ -51,8 +51,8 @@ def _blank_row(job: Job, run_id: str) -> dict:
                 "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step",
                 "tolerance", "diverged_t", "wall_s", "engine_s"):
         row[col] = float("nan")
-    row.update(repeats=0, settings="{}", within_tol=False, tol_capped=False, tol_reason="",
-               samples=0, timing="")
+    row.update(repeats=0, settings="{}", within_tol=False, tol_capped=False, unresolved=False,
+               tol_reason="", samples=0, timing="")
     return row
 
 
@@ -99,6 +99,9 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
         row.update(status="unsupported", reason=reason)
         return
     steps = int(round(case.t_end(p) / job.dt))
+    if steps < 1:  # expand() refuses it; a Job built by hand gets a row saying why
+        raise ValueError(f"dt = {job.dt:g} s is longer than the run (t_end = "
+                         f"{case.t_end(p):g} s): dt must be in (0, {case.t_end(p):g}] s")
     stride = max(1, int(round(case.sample_dt(p) / job.dt)))
     row.update(steps=steps, t_end=steps * job.dt)
     sim, setup_s = clock.call(_build, engine, scene, job)
@@ -117,15 +120,7 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
         row["trajectory"] = stacked
     if math.isclose(job.dt, case.reference_dt(p), rel_tol=1e-9):
         row["series"] = series(case, p, stacked)
-    tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
-                              job.engine_variant, json.loads(row["settings"]))
-    row["tol_capped"] = bool(tol >= case.motion_scale(p))
-    if row["tol_capped"]:  # a bound larger than the motion would accept any answer
-        tol, why = case.motion_scale(p), (f"{why}; that bound ({tol:.3g}) exceeds the motion "
-                                          f"itself: capped at the motion scale (this dt does "
-                                          f"not resolve the case with this method)")
-    row.update(tolerance=tol, tol_reason=why,
-               within_tol=bool(row[case.tolerance_column(p)] <= tol))
+    row.update(_verdict(case, p, job, row))
     if repeats > 0 and stepping_s > max(budget_s, LONG_RUN_S):
         # a long run: its step() calls in the accuracy pass (observation outside them) are
         # the one timing sample; repeating it would only double the wall time. Its <= ~400
@@ -136,6 +131,22 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
     elif repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
         row.update(clock.call(_timing_pass, engine, scene, job, steps, repeats, budget_s),
                    timing="fresh models, min of repeats")
+
+
+def _verdict(case, p, job, row) -> dict:
+    """tolerance, tol_reason, within_tol and unresolved of an ok row. A derived bound at or
+    above the motion itself would accept any answer (a spring damped out entirely errs by less
+    than its amplitude): such a row is `unresolved` (this dt does not resolve the case with
+    this method), never within tolerance; its tolerance column keeps the motion scale."""
+    tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
+                              job.engine_variant, json.loads(row["settings"]))
+    scale = case.motion_scale(p)
+    if tol >= scale:
+        return {"tolerance": scale, "tol_capped": True, "unresolved": True, "within_tol": False,
+                "tol_reason": f"{why}; that bound ({tol:.3g}) is not below the motion itself "
+                              f"({scale:.3g}): unresolved, no accuracy verdict at this dt"}
+    return {"tolerance": tol, "tol_reason": why, "tol_capped": False, "unresolved": False,
+            "within_tol": bool(row[case.tolerance_column(p)] <= tol)}
 
 
 def _build(engine, scene, job):

@@ -16,7 +16,7 @@ import pandas as pd
 
 from refsim.registry import engine_names, get_engine
 from refsim.registry import case_names, get_case
-from refsim.integrators import INTEGRATORS, get_integrator
+from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
 from refsim.job import (BUDGET_S, LONG_RUN_S, STATUSES, Job, run_job,  # noqa: F401
                         series)
 from refsim.metrics import convergence_order
@@ -24,6 +24,12 @@ from refsim.metrics import convergence_order
 # ---------------------------------------------------------------------------------------------
 # Matrix expansion
 # ---------------------------------------------------------------------------------------------
+MAX_STEPS = 10 ** 8
+MAX_STEPS_REASON = ("a run of more steps takes minutes to hours per engine and integrator "
+                    "(1 to 10 us a step) and its round-off alone, n eps of the state, passes "
+                    "2e-8 of it")
+
+
 def check_dt(dt) -> float:
     try:
         value = float(dt)
@@ -34,9 +40,42 @@ def check_dt(dt) -> float:
     return value
 
 
+def check_steps(dt: float, t_end: float, where: str, max_steps: int = MAX_STEPS) -> int:
+    """The step count of a run of t_end at dt; ValueError naming the valid dt range when dt is
+    longer than the run or the count passes max_steps (--max-steps overrides it)."""
+    if dt > t_end:
+        raise ValueError(f"--dt {dt:g} is longer than the run of {where} (t_end = {t_end:g} s): "
+                         f"dt must be in (0, {t_end:g}] s")
+    steps = t_end / dt
+    if steps > max_steps:
+        raise ValueError(f"--dt {dt:g} gives {steps:.3g} steps for {where}: dt must be in "
+                         f"[{t_end / max_steps:.3g}, {t_end:g}] s, at most --max-steps "
+                         f"{max_steps:g} steps ({MAX_STEPS_REASON})")
+    return int(round(steps))
+
+
+def check_integrators(integrators, engines) -> None:
+    """Each spec names an integrator some engine offers; a parameter after ':' is given and in
+    its range ('rk2:' would run the default rk2 under another row key)."""
+    offered = {i for e in engines for i in e.integrators}
+    offered |= {i for e in engines for g in e.model_groups() for i in g.integrators or ()}
+    for spec in integrators:
+        name, colon, arg = spec.partition(":")
+        if colon and not arg:
+            hint = PARAMETRISED.get(name, "this integrator takes none")
+            raise ValueError(f"integrator {spec!r}: a parameter must follow ':' ({hint}), "
+                             f"or leave out the ':' for the default")
+        if name in INTEGRATORS:
+            get_integrator(spec)  # validates a parameter such as rk2:alpha
+        if name not in offered:
+            raise ValueError(f"integrator must be one of {sorted(offered)} for engines "
+                             f"{[e.name for e in engines]}, got {spec!r}")
+
+
 def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, variants=None,
-           params=None, full=False) -> list[Job]:
-    """Every job of the matrix; unknown names raise ValueError naming the valid ones.
+           params=None, full=False, max_steps=MAX_STEPS) -> list[Job]:
+    """Every job of the matrix; unknown names raise ValueError naming the valid ones, and so
+    does a dt longer than a run or giving more than `max_steps` steps.
 
     The dt sweep runs each engine's default formulation; its alternatives (the KKT and penalty
     pendulum, taichi's kernel-launch-per-step, MuJoCo's coupled contacts...) compare terms at
@@ -48,14 +87,7 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
     engines = [get_engine(e) for e in (engines or engine_names())]
     dts = [check_dt(d) for d in dts] if dts else None
     if integrators:
-        offered = {i for e in engines for i in e.integrators}
-        offered |= {i for e in engines for g in e.model_groups() for i in g.integrators or ()}
-        for spec in integrators:
-            if spec.partition(":")[0] in INTEGRATORS:
-                get_integrator(spec)  # validates a parameter such as rk2:alpha
-            if spec.partition(":")[0] not in offered:
-                raise ValueError(f"integrator must be one of {sorted(offered)} for engines "
-                                 f"{[e.name for e in engines]}, got {spec!r}")
+        check_integrators(integrators, engines)
     if variants:
         known = sorted({v for c in cases for v in get_case(c).variants})
         for v in variants:
@@ -71,6 +103,8 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
             ref = [case.reference_dt(p)]
             sweep = dts or (ref if quick else case.dts(p))
             alt_sweep = sweep if (full or dts) else ([] if quick else ref)
+            for dt in sweep:
+                check_steps(dt, case.t_end(p), f"{cname}/{variant}", max_steps)
             for engine in engines:
                 jobs.extend(Job(**{**asdict(j), "params": overrides}) for j in _engine_jobs(
                     cname, variant, engine, scene, integrators, sweep, alt_sweep))

@@ -169,7 +169,7 @@ def row_key(row: dict) -> tuple:
 # results columns that hold text (an empty string is a value there, not a missing number)
 TEXT_COLUMNS = ("run_id", "case", "variant", "engine", "engine_variant", "integrator",
                 "params", "engine_version", "status", "reason", "settings", "tol_reason",
-                "timing", "within_tol", "tol_capped", "host")
+                "timing", "within_tol", "tol_capped", "unresolved", "host")
 
 
 def load_results(run_dir: Path) -> pd.DataFrame:

@@ -50,19 +50,38 @@ def reference_rows(table: pd.DataFrame) -> pd.DataFrame:
     return table.loc[picked]
 
 
+def _truthy(value) -> bool:
+    return value in (True, "True")
+
+
 def _cell(r) -> str:
-    """err_max, energy drift and us/step of one row, or its status when not ok."""
+    """err_max, energy drift and us/step of one row, or its status when not ok. The flag: '?'
+    unresolved (the derived bound is not below the motion: no accuracy verdict), '!' above
+    the tolerance."""
     if r["status"] != "ok":
         return f"{r['status']:^26s}"
-    flag = "" if r["within_tol"] in (True, "True") else "!"
+    flag = "?" if _truthy(r.get("unresolved")) else "" if _truthy(r["within_tol"]) else "!"
     return (f"{_fmt(r['err_max'], '8.1e')}{flag:1s} {_fmt(r['energy_drift'], '7.1e')} "
             f"{_fmt(r['us_per_step'], '8.3g')}")
+
+
+def verdict_counts(table: pd.DataFrame) -> dict:
+    """The ok rows split by verdict: within tolerance, above it, unresolved (counted apart:
+    an unresolved row is never within tolerance)."""
+    ok = table[table["status"] == "ok"]
+    unresolved = (ok["unresolved"].map(_truthy) if "unresolved" in ok
+                  else pd.Series(False, index=ok.index))
+    within = ok["within_tol"].map(_truthy) & ~unresolved
+    return {"within tolerance": int(within.sum()),
+            "above tolerance": int((~within & ~unresolved).sum()),
+            "unresolved": int(unresolved.sum())}
 
 
 def print_summary(table: pd.DataFrame, stream=sys.stdout) -> None:
     """Per case and variant: every engine and integrator side by side at each dt (err_max,
     energy drift, us/step; '!' marks an error above the case tolerance) with the measured
-    convergence order; rows that did not run show their status and reason once."""
+    convergence order; rows that did not run show their status and reason once. The last line
+    counts the rows by status, the ok ones by verdict ('?' unresolved, counted apart)."""
     for (case, variant), group in table.groupby(["case", "variant"], sort=False):
         dts = sorted((d for d in group["dt"].unique() if np.isfinite(d)), reverse=True)
         print(f"\n{case} / {variant}", file=stream)
@@ -84,5 +103,7 @@ def print_summary(table: pd.DataFrame, stream=sys.stdout) -> None:
         for note in notes:
             print(note, file=stream)
     counts = table["status"].value_counts().to_dict()
-    print(f"\n{len(table)} rows: " + ", ".join(f"{k} {v}" for k, v in counts.items()),
-          file=stream)
+    verdicts = ", ".join(f"{k} {v}" for k, v in verdict_counts(table).items())
+    print(f"\n{len(table)} rows: " + ", ".join(
+        f"{k} {v}" + (f" ({verdicts})" if k == "ok" else "") for k, v in counts.items()),
+        file=stream)

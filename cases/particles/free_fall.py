@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol
+from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol, roundoff_tolerance
 from refsim.scene import Body, Scene
 
 
@@ -85,21 +85,24 @@ class FreeFall(Case):
         t = p["duration"]
         a_max = p["g"] + p["drag"] / p["mass"] * np.hypot(p["vx0"], p["vz0"])
         scale = self.motion_scale(p)
-        roundoff = 1e-12 * scale * max(1.0, t / dt)
+        # |x| <= scale; a velocity rounding eps/2 |v|, |v| <= |v0| + g t, is carried over at
+        # most t: eps/2 (|v0| t + g t^2) <= eps scale. One rounding: at most 1.5 eps scale
+        roundoff, roundoff_reason = roundoff_tolerance(max(1, int(round(t / dt))), 1.5 * scale)
         rtol = adaptive_rtol(integrator)
         if rtol is not None and p["drag"] > 0:
             return 10 * rtol * scale * max(1.0, t * p["drag"] / p["mass"]) + roundoff, \
-                ADAPTIVE_REASON
+                ADAPTIVE_REASON + roundoff_reason
         if p["drag"] == 0 and order >= 2:
             return roundoff, ("exact for any method of order >= 2 (x is quadratic in t): "
-                              "round-off only, 1e-12 relative per step")
+                              "round-off only" + roundoff_reason)
         if order == 1 or p["drag"] == 0:
             return a_max * t * dt / 2 + roundoff, ("first order: the error of every Euler step "
-                                                  "on constant acceleration is a t dt / 2")
+                                                  "on constant acceleration is a t dt / 2"
+                                                  + roundoff_reason)
         tau = p["mass"] / p["drag"]
         return a_max * t * dt ** order / tau ** (order - 1) + roundoff, (
             f"order {order} on an exponential of time constant tau: a_max t dt^p / tau^(p-1) "
-            "(leading error constant taken as 1)")
+            "(leading error constant taken as 1)" + roundoff_reason)
 
 
 CASE = FreeFall()

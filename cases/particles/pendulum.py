@@ -16,7 +16,7 @@ import numpy as np
 from scipy.special import ellipe, ellipj, ellipk
 
 from refsim.case import (ADAPTIVE_REASON, Case, Param, adaptive_rtol, is_symplectic,
-                         order_tolerance)
+                         order_tolerance, roundoff_tolerance)
 from refsim.scene import Body, Joint, Scene
 
 
@@ -110,10 +110,30 @@ class Pendulum(Case):
                       f"1 + kappa w0 t = {1 + kappa * w_t:.3g}: a non-symplectic method's energy "
                       f"error changes the period by kappa = dlnT/dlnE = {kappa:.3g} of it, and "
                       "that phase error grows with t")
-        return tol + extra, reason + extra_reason
+        roundoff, roundoff_reason = self._roundoff(p, dt)
+        return tol + extra + roundoff, reason + extra_reason + roundoff_reason
+
+    def _roundoff(self, p, dt):
+        """Rounding the state once errs in theta by at most eps theta0 for a hinge angle
+        (theta and theta'/w0 are both <= theta0) and eps (1 + theta0) / sqrt(2) for Cartesian
+        coordinates (x and v to eps/2 of L and of L theta' per component): S = 1 + theta0
+        covers both. A rounding changes the energy, hence the period (kappa = dlnT/dlnE),
+        and the phase error it starts grows over the rest of the run: times 1 + kappa w0 t."""
+        growth = 1.0 + period_sensitivity(p["theta0"]) * self.omega(p) * p["duration"]
+        bound, reason = roundoff_tolerance(int(round(p["duration"] / dt)),
+                                           1.0 + p["theta0"])
+        return bound * growth, f"{reason}, times 1 + kappa w0 t = {growth:.3g}"
 
     @staticmethod
     def _formulation_error(p, engine_variant, settings):
+        inertia = (settings or {}).get("point_inertia")  # kg m^2 an engine gives the bob
+        if inertia:
+            share = inertia / (p["mass"] * p["length"] ** 2)
+            w_t = np.sqrt(p["g"] / p["length"]) * p["duration"]
+            return p["theta0"] * w_t * share / 2, (
+                f"; plus the bob's own inertia I = {inertia:g} kg m^2: (m L^2 + I) theta'' "
+                f"slows w0 by I / (2 m L^2) = {share / 2:.2g}, a phase error theta0 w0 t "
+                "I / (2 m L^2) (dt-independent)")
         ratio = (settings or {}).get("penalty_ratio")
         if ratio:
             stretch = 1.0 + 2.0 * (1.0 - np.cos(p["theta0"]))

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.case import (ADAPTIVE_REASON, Case, Param, adaptive_rtol, is_symplectic,
-                         order_tolerance)
+                         order_tolerance, roundoff_tolerance)
 from refsim.scene import Body, Scene, Spring
 
 Y_SWEEP = (0.2, 0.1, 0.05, 0.025)
@@ -101,12 +101,16 @@ class StiffSpring(Case):
             return 10 * rtol * p["amplitude"] * w_t, ADAPTIVE_REASON
         y = self.omega(p) * dt
         symplectic = is_symplectic(settings)
-        roundoff = 1e-13 * w_t / y * p["amplitude"]
+        # the state x = L0 + u, |x| <= L0 + A, and v, |v| / w0 <= A: rounding both errs by at
+        # most eps/2 (L0 + 2A) in u (a linear oscillation keeps it, neither grown nor damped)
+        roundoff, roundoff_reason = roundoff_tolerance(
+            int(round(self.t_end(p) / dt)), 0.5 * (p["rest_length"] + 2 * p["amplitude"]))
         tol = order_tolerance(p["amplitude"], w_t, y, order, symplectic) + roundoff
         form = ("A ((w0 dt)^p + w0 t (w0 dt)^q), q = 2 ceil(p/2)" if symplectic
                 else "A expm1(w0 t (w0 dt)^p)")
         return tol, (f"order {order}{', symplectic' if symplectic else ''}: {form}, the global "
-                     "error bound of such a method after w0 t radians (see order_tolerance)")
+                     "error bound of such a method after w0 t radians (see order_tolerance)"
+                     + roundoff_reason)
 
     def stability(self, p):
         """`refsim stress`: y = omega dt on the undamped spring from rest, the amplitude lowered

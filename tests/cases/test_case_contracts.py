@@ -125,7 +125,7 @@ def _verdict(case, p, formulation, integrator, row):
     if formulation == "hard_sphere_seed":
         # the slide's flawed formula: the harness must catch it, not pass it
         return "the seed formula passed its tolerance" if row["within_tol"] else None
-    if row["tol_capped"]:
+    if row["unresolved"]:
         return _capped_verdict(case, p, formulation, integrator, row)
     return None if row["within_tol"] else (f"err_max {row['err_max']:.3g} > tolerance "
                                            f"{row['tolerance']:.3g}")
@@ -135,7 +135,8 @@ def _capped_verdict(case, p, formulation, integrator, row):
     """The derived bound exceeds the motion itself: this dt does not resolve the case with this
     method and the row promises no accuracy (its tolerance is the motion scale). At these
     reference dts that may only happen to first-order methods whose energy error compounds
-    (not symplectic); the run must still be finite and stay under the derived bound."""
+    (not symplectic); the run must still be finite and stay under the derived bound, and the
+    row is `unresolved`, never within tolerance."""
     declared = json.loads(row["settings"])["integrator"]
     if declared["order"] != 1 or declared["symplectic"]:
         return f"tolerance capped for {declared}"
@@ -147,8 +148,8 @@ def _capped_verdict(case, p, formulation, integrator, row):
               f"{column} finite": math.isfinite(row[column]),
               "energy_drift finite": math.isfinite(row["energy_drift"]),
               f"{column} {row[column]:.3g} <= derived bound {derived:.3g}": row[column] <= derived,
-              "within_tol says err <= motion scale": row["within_tol"] == (
-                  row[column] <= case.motion_scale(p))}
+              "unresolved, never within tolerance": (row["unresolved"] is True
+                                                     and row["within_tol"] is False)}
     failed = [what for what, ok in checks.items() if not ok]
     return f"capped row: {failed}" if failed else None
 

@@ -30,6 +30,19 @@ def refsim(*args, cwd=None):
     (["run", "--case", "pendulum", "--variant", "nope"], "variant must be one of"),
     (["run", "--repeats", "0"], "--repeats must be an integer >= 1"),
     (["run", "--bogus"], "unrecognized arguments"),
+    (["run", "--case", "free_fall", "--dt", "10"],
+     "--dt 10 is longer than the run of free_fall/default (t_end = 2 s): dt must be in (0, 2]"),
+    (["run", "--case", "free_fall", "--dt", "1e-300"],
+     "dt must be in [2e-08, 2] s, at most --max-steps 1e+08 steps"),
+    (["run", "--case", "free_fall", "--dt", "1e-4", "--max-steps", "1000"],
+     "--dt 0.0001 gives 2e+04 steps for free_fall/default: dt must be in [0.002, 2] s"),
+    (["run", "--max-steps", "0"], "--max-steps must be an integer >= 1"),
+    (["run", "--max-steps", "1.5"], "--max-steps must be an integer >= 1"),
+    (["run", "--threads", "abc"], "--threads must be an integer >= 1, got 'abc'"),
+    (["run", "--threads", "0"], "--threads must be an integer >= 1, got '0'"),
+    (["run", "--jobs", "0"], "--jobs must be an integer >= 1, got '0'"),
+    (["run", "--integrator", "rk2:"], "integrator 'rk2:': a parameter must follow ':' (alpha "
+                                      "in (0, 1]"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, names, tmp_path):
     out = refsim(*args, "--out", str(tmp_path))
@@ -101,3 +114,8 @@ def test_resume_finishes_without_redoing_rows(tmp_path):
 def test_resume_unknown_run_is_bad_input(tmp_path):
     out = refsim("run", "--resume", "nope", "--out", str(tmp_path))
     assert out.returncode == 2 and "run must be a stored run directory" in out.stderr
+
+
+def test_max_steps_reads_digits_and_powers_of_ten():
+    from refsim.cli import _step_bound
+    assert _step_bound("1000") == 1000 and _step_bound("1e9") == 10 ** 9

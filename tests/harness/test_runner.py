@@ -65,3 +65,92 @@ def test_timing_pass_is_separate_and_repeated():
     assert row["step_s"] <= row["step_s_median"]
     assert row["us_per_step"] == pytest.approx(row["step_s"] / row["steps"] * 1e6)
     assert np.isfinite(row["setup_s"]) and row["setup_s"] >= 0
+
+
+def test_bound_above_the_motion_is_unresolved_never_within_tolerance():
+    # implicit Euler at w0 dt = 0.2 damps the spring to 5 % of its amplitude in 5 periods: the
+    # error stays below the amplitude, yet the derived bound (53 A) says nothing about it
+    row = run_job(Job("stiff_spring", "default", "refsim", "", "implicit_euler", 0.002),
+                  repeats=0)
+    assert row["status"] == "ok" and row["err_max"] < 0.1 == row["tolerance"]
+    assert row["unresolved"] is True and row["within_tol"] is False
+    assert "unresolved" in row["tol_reason"]
+
+
+def test_resolved_row_states_its_round_off_term():
+    row = run_job(Job("stiff_spring", "default", "refsim", "", "rk4", 5e-4), repeats=0)
+    assert row["unresolved"] is False and row["within_tol"] is True
+    steps = row["steps"]
+    bound = steps * np.finfo(float).eps * 0.5 * (1.0 + 2 * 0.1)  # n eps (L0 + 2A) / 2
+    assert f"round-off n eps S = {bound:.3g} (n = {steps} steps" in row["tol_reason"]
+
+
+def test_job_with_dt_longer_than_the_run_is_a_failed_row_saying_so():
+    row = run_job(Job("free_fall", "default", "refsim", "", "rk4", 10.0), repeats=0)
+    assert row["status"] == "failed"
+    assert row["reason"] == ("ValueError: dt = 10 s is longer than the run (t_end = 2 s): dt "
+                             "must be in (0, 2] s")
+
+
+@pytest.mark.parametrize("kwargs,message", [
+    ({"dts": [10.0]}, "--dt 10 is longer than the run of free_fall/default (t_end = 2 s): dt "
+                      "must be in (0, 2] s"),
+    ({"dts": [1e-300]}, "--dt 1e-300 gives 2e+300 steps for free_fall/default: dt must be in "
+                        "[2e-08, 2] s, at most --max-steps 1e+08 steps"),
+    ({"dts": [1e-4], "max_steps": 1000}, "--dt 0.0001 gives 2e+04 steps for free_fall/default: "
+                                         "dt must be in [0.002, 2] s, at most --max-steps 1000"),
+    ({"integrators": ["rk2:"]}, "integrator 'rk2:': a parameter must follow ':' (alpha in "
+                                "(0, 1]"),
+    ({"integrators": ["dopri5_adaptive:"]}, "integrator 'dopri5_adaptive:': a parameter must "
+                                            "follow ':' (rtol > 0"),
+    ({"integrators": ["rk4:"]}, "integrator 'rk4:': a parameter must follow ':' (this "
+                                "integrator takes none)"),
+])
+def test_expand_refuses_bad_steps_and_empty_integrator_parameters(kwargs, message):
+    with pytest.raises(ValueError) as caught:
+        expand(["free_fall"], ["refsim"], variants=["default"], **kwargs)
+    assert str(caught.value).startswith(message), str(caught.value)
+
+
+def test_max_steps_bound_is_inclusive_and_overridable():
+    jobs = expand(["free_fall"], ["refsim"], ["rk4"], [1e-3], variants=["default"],
+                  max_steps=2000)
+    assert [j.dt for j in jobs] == [1e-3]
+
+
+def test_summary_counts_unresolved_rows_apart():
+    import io
+    import pandas as pd
+    from refsim.summary import print_summary, verdict_counts
+    base = {"case": "stiff_spring", "variant": "default", "engine": "refsim",
+            "engine_variant": "", "dt": 0.002, "energy_drift": 0.1, "us_per_step": 1.0,
+            "order": np.nan, "reason": ""}
+    table = pd.DataFrame([
+        {**base, "integrator": "implicit_euler", "status": "ok", "err_max": 0.09,
+         "within_tol": False, "unresolved": True},
+        {**base, "integrator": "rk4", "status": "ok", "err_max": 1e-6, "within_tol": True,
+         "unresolved": False},
+        {**base, "integrator": "heun", "status": "ok", "err_max": 1e-2, "within_tol": False,
+         "unresolved": False},
+        {**base, "integrator": "explicit_euler", "status": "diverged", "err_max": np.nan,
+         "within_tol": False, "unresolved": False}])
+    assert verdict_counts(table) == {"within tolerance": 1, "above tolerance": 1,
+                                     "unresolved": 1}
+    out = io.StringIO()
+    print_summary(table, out)
+    text = out.getvalue()
+    assert "9.0e-02?" in text and "1.0e-02!" in text and "1.0e-06 " in text
+    assert text.strip().splitlines()[-1] == ("4 rows: ok 3 (within tolerance 1, above "
+                                             "tolerance 1, unresolved 1), diverged 1")
+
+
+def test_pendulum_bound_counts_an_engines_point_inertia():
+    # a bob of inertia I on a rod: (m L^2 + I) theta'' slows w0 by I / (2 m L^2); MuJoCo's
+    # 1e-12 kg m^2 gives 1.4e-11 rad at any dt (its RK4 floor on the default swing)
+    from refsim.registry import get_case
+    case = get_case("pendulum")
+    p = case.variant_params("default")
+    plain, _ = case.tolerance(p, "rk4", 4, 1e-4, "", {})
+    with_inertia, why = case.tolerance(p, "rk4", 4, 1e-4, "", {"point_inertia": 1e-12})
+    assert with_inertia - plain == pytest.approx(1.0 * np.sqrt(9.81) * 10.0 * 0.5e-12)
+    assert "bob's own inertia I = 1e-12 kg m^2" in why
