@@ -100,6 +100,11 @@ class Case:
     def reference_dt(self, p) -> float:
         raise NotImplementedError
 
+    def order_dts(self, p) -> list[float]:
+        """Steps run for the convergence-order fit only (accuracy pass, no timing), beyond
+        `dts(p)`, so that the fit spans a decade of dt above the error floor."""
+        return []
+
     def observables(self, p, obs) -> dict:
         raise NotImplementedError
 

@@ -31,6 +31,7 @@ class Job:
     integrator: str
     dt: float
     params: tuple = ()  # case parameter overrides, sorted (name, value) pairs
+    timed: bool = True  # False: accuracy pass only (a case's order_dts, for the order fit)
 
     @property
     def label(self) -> str:
@@ -61,6 +62,7 @@ def run_job(job: Job, run_id: str = "", repeats: int = 3, budget_s: float = BUDG
     """One row. repeats=0 skips the timing pass; keep_trajectory adds the stacked observations
     under "trajectory" (for tests and plots; never stored in the table)."""
     row = _blank_row(job, run_id)
+    repeats = repeats if job.timed else 0
     t0 = time.perf_counter()
     clock = EngineClock()
     try:

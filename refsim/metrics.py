@@ -1,6 +1,8 @@
 """Error norms, drifts, measured convergence order and the stability-limit search."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 
@@ -23,7 +25,8 @@ def convergence_order(dts, errs, floor: float, ceiling: float) -> tuple[float, i
     """Least-squares slope of log err against log dt over the asymptotic range.
 
     Points with err <= floor (round-off) or err >= ceiling (pre-asymptotic or unstable) are
-    dropped. Returns (slope, points used); NaN with fewer than two points.
+    dropped. Returns (slope, points used); NaN with fewer than two points. (A quick slope for
+    tests on chosen sweeps; the results table's orders come from `fit_order`.)
     """
     dts, errs = np.asarray(dts, float), np.asarray(errs, float)
     keep = np.isfinite(errs) & (errs > floor) & (errs < ceiling)
@@ -31,6 +34,77 @@ def convergence_order(dts, errs, floor: float, ceiling: float) -> tuple[float, i
         return float("nan"), int(np.count_nonzero(keep))
     slope = np.polyfit(np.log(dts[keep]), np.log(errs[keep]), 1)[0]
     return float(slope), int(np.count_nonzero(keep))
+
+
+MIN_DT_SPAN = 10.0  # a measured order needs a sweep of at least a decade of dt
+MIN_FIT_POINTS = 3  # and three points (two give no standard error)
+# asymptotic range: err = C dt^p (1 + O(dt)), so every local slope (between neighbouring dts)
+# agrees with the fitted one; a slope that drifts by more than this is not yet asymptotic
+# (coarse end) or is flattened by round-off (fine end)
+SLOPE_SPREAD = 0.25
+AT_FLOOR, PRE_ASYMPTOTIC = "at floor", "pre-asymptotic"
+SHORT_SWEEP = "dt sweep under a decade"
+
+
+@dataclass(frozen=True)
+class OrderFit:
+    """A measured convergence order: the slope of log err against log dt, its standard error,
+    the points it used; `note` says why there is none (order and stderr are then NaN)."""
+
+    order: float = float("nan")
+    stderr: float = float("nan")
+    points: int = 0
+    note: str = ""
+
+
+def fit_order(dts, errs, floor: float, ceiling: float, nominal: float = float("nan"),
+              min_span: float = MIN_DT_SPAN, spread: float = SLOPE_SPREAD) -> OrderFit:
+    """The order over the asymptotic range: the points strictly between `floor` (round-off,
+    the reference's accuracy) and `ceiling`, from the finest such dt (the asymptotic range
+    is the small-dt end: a fit that leaves out finer clean points that disagree with it is
+    not asymptotic) coarse-ward as far as every local slope stays within `spread` of the
+    fitted one. It must span `min_span` in dt with >= MIN_FIT_POINTS points, and may not
+    exceed the `nominal` order by more than `spread` (an order above the method's is a
+    leading error term not yet dominant, or cancelling). Otherwise NaN with note AT_FLOOR
+    (errors reach the floor before a clean decade), PRE_ASYMPTOTIC (errors above the
+    ceiling, or local slopes that do not settle) or SHORT_SWEEP (clean, but under a
+    decade of dt)."""
+    dts, errs = np.asarray(dts, float), np.asarray(errs, float)
+    ok = np.isfinite(errs) & np.isfinite(dts) & (dts > 0)
+    order = np.argsort(dts[ok])
+    dts, errs = dts[ok][order], errs[ok][order]
+    inside = (errs > floor) & (errs < ceiling)
+    first = int(np.argmax(inside)) if inside.any() else len(dts)
+    last = first
+    while last < len(dts) and inside[last]:
+        last += 1
+    best = None
+    for hi in range(last, first + MIN_FIT_POINTS - 1, -1):
+        best = _window_fit(dts[first:hi], errs[first:hi], min_span, spread)
+        if best is not None:
+            break
+    if best is not None:
+        return best if not best.order > nominal + spread else OrderFit(note=PRE_ASYMPTOTIC)
+    if np.any(errs <= floor):
+        return OrderFit(note=AT_FLOOR)
+    if np.any(errs >= ceiling) or (inside.any() and dts[inside][-1] / dts[inside][0]
+                                   >= min_span * (1 - 1e-9)):
+        return OrderFit(note=PRE_ASYMPTOTIC)
+    return OrderFit(note=SHORT_SWEEP)
+
+
+def _window_fit(dts, errs, min_span, spread) -> OrderFit | None:
+    """The least-squares fit over these points, None unless they span `min_span` and every
+    local slope lies within `spread` of the fitted slope."""
+    if len(dts) < MIN_FIT_POINTS or dts[-1] / dts[0] < min_span * (1 - 1e-9):
+        return None
+    x, y = np.log(dts), np.log(errs)
+    (slope, intercept), cov = np.polyfit(x, y, 1, cov="unscaled")
+    if np.max(np.abs(np.diff(y) / np.diff(x) - slope)) > spread:
+        return None
+    residual = y - (slope * x + intercept)
+    variance = float(residual @ residual) / (len(x) - 2)
+    return OrderFit(float(slope), float(np.sqrt(variance * cov[0, 0])), len(x))
 
 
 def spectral_radius(matrix: np.ndarray) -> np.ndarray:

@@ -19,7 +19,8 @@ from refsim.registry import case_names, get_case
 from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
 from refsim.job import (BUDGET_S, LONG_RUN_S, STATUSES, Job, run_job,  # noqa: F401
                         series)
-from refsim.metrics import convergence_order
+from refsim.case import adaptive_rtol
+from refsim.metrics import OrderFit, fit_order
 
 # ---------------------------------------------------------------------------------------------
 # Matrix expansion
@@ -103,11 +104,12 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
             ref = [case.reference_dt(p)]
             sweep = dts or (ref if quick else case.dts(p))
             alt_sweep = sweep if (full or dts) else ([] if quick else ref)
-            for dt in sweep:
+            untimed = [] if (quick or dts) else [d for d in case.order_dts(p) if d not in sweep]
+            for dt in sweep + untimed:
                 check_steps(dt, case.t_end(p), f"{cname}/{variant}", max_steps)
             for engine in engines:
                 jobs.extend(Job(**{**asdict(j), "params": overrides}) for j in _engine_jobs(
-                    cname, variant, engine, scene, integrators, sweep, alt_sweep))
+                    cname, variant, engine, scene, integrators, sweep, alt_sweep, untimed))
     return jobs
 
 
@@ -120,7 +122,7 @@ def _variants(case, variants, quick):
     return list(case.default_variants or case.variants)
 
 
-def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep):
+def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep, untimed=()):
     if not engine.available() or engine.supports(scene) is not None:
         return [Job(cname, variant, engine.name, "", "", float("nan"))]
     offered = engine.offered_integrators(scene)
@@ -132,7 +134,9 @@ def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep):
     forms = engine.formulations(scene)
     return [Job(cname, variant, engine.name, ev, spec, dt)
             for k, ev in enumerate(forms) for spec in specs
-            for dt in (sweep if k == 0 else alt_sweep)]
+            for dt in (sweep if k == 0 else alt_sweep)] + [
+        Job(cname, variant, engine.name, forms[0], spec, dt, timed=False)
+        for spec in specs if adaptive_rtol(spec) is None for dt in untimed]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -201,17 +205,34 @@ GROUP = ["case", "variant", "engine", "engine_variant", "integrator"]
 
 
 def with_orders(table: pd.DataFrame) -> pd.DataFrame:
-    """Adds `order`: the measured convergence order of each case x engine x integrator."""
+    """Adds the measured convergence order of each case x engine x integrator over all its
+    ok rows (timed dts and the case's accuracy-only `order_dts`): `order` with its standard
+    error `order_stderr` and `order_points`, or NaN with `order_note` saying why (at floor,
+    pre-asymptotic, adaptive step, single dt; see metrics.fit_order)."""
     table = table.copy()
     table["order"] = np.nan
+    table["order_stderr"] = np.nan
     table["order_points"] = 0
+    table["order_note"] = ""
     for key, group in table[table["status"] == "ok"].groupby(GROUP + ["params"], dropna=False):
         case = get_case(key[0])
         if not case.order_meaningful:
             continue
         p = case.variant_params(key[1], json.loads(key[-1]))
-        floor, ceiling = case.error_floor(p), case.error_ceiling(p)
-        order, used = convergence_order(group["dt"], group["err_max"], floor, ceiling)
-        table.loc[group.index, "order"] = order
-        table.loc[group.index, "order_points"] = used
+        fit = _group_order(case, p, key[4], group)
+        table.loc[group.index, ["order", "order_stderr", "order_points", "order_note"]] = \
+            [fit.order, fit.stderr, fit.points, fit.note]
     return table
+
+
+ADAPTIVE_NOTE = "adaptive step: dt is the output interval, no order in it"
+SINGLE_DT_NOTE = "single dt"
+
+
+def _group_order(case, p, integrator, group) -> OrderFit:
+    if adaptive_rtol(integrator) is not None:
+        return OrderFit(note=ADAPTIVE_NOTE)
+    if group["dt"].nunique() < 2:
+        return OrderFit(note=SINGLE_DT_NOTE)
+    return fit_order(group["dt"], group["err_max"], case.error_floor(p),
+                     case.error_ceiling(p), group["nominal_order"].max())
