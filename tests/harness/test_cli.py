@@ -61,19 +61,21 @@ def test_list_shows_cases_engines_integrators():
         assert word in out.stdout
 
 
-def _small_run(tmp_path, *extra):
+def _small_run(tmp_path, *extra, dts=("0.01", "0.005")):
+    dt_args = [a for dt in dts for a in ("--dt", dt)]
     out = refsim("run", "--case", "free_fall", "--engine", "refsim", "--integrator",
-                 "symplectic_euler", "--integrator", "rk4", "--dt", "0.01", "--dt", "0.005",
+                 "symplectic_euler", "--integrator", "rk4", *dt_args,
                  "--variant", "default", "--repeats", "1", "--out", str(tmp_path), *extra)
     assert out.returncode == 0, out.stderr
     return out, Path(out.stdout.strip().splitlines()[-1])
 
 
 def test_run_writes_table_and_manifest(tmp_path):
-    out, run_dir = _small_run(tmp_path)
+    # a decade of dt: the least a measured order is fitted over (refsim.metrics.fit_order)
+    out, run_dir = _small_run(tmp_path, dts=("0.02", "0.01", "0.004", "0.002"))
     assert run_dir.parent == tmp_path and run_dir.is_dir()
     table = load_results(run_dir)
-    assert len(table) == 4 and set(table["status"]) == {"ok"}
+    assert len(table) == 8 and set(table["status"]) == {"ok"}
     for col in ("run_id", "case", "engine", "engine_version", "integrator", "dt", "steps",
                 "t_end", "status", "reason", "err_max", "err_final", "err_rms", "energy_drift",
                 "setup_s", "compile_s", "step_s", "us_per_step", "repeats", "settings",

@@ -203,7 +203,10 @@ def test_reference_dt_runs_are_ok_and_within_tolerance(name, integrator):
         row = run_job(Job(name, variant, "mujoco", "", integrator, case.reference_dt(p)),
                       repeats=1, budget_s=0.0)
         assert row["status"] == "ok", (variant, row["reason"])
-        assert row["within_tol"], (variant, row["err_max"], row["tolerance"])
+        # a bound not below the motion gives no verdict (unresolved): then the error must still
+        # stay under the motion scale, as it had to when such rows counted as within tolerance
+        assert row["within_tol"] or (row["unresolved"] and row["err_max"] <= row["tolerance"]), \
+            (variant, row["err_max"], row["tolerance"])
         assert row["us_per_step"] > 0 and row["compile_s"] > 0
 
 
