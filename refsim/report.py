@@ -68,9 +68,10 @@ def write_report(run_dir, target_error=None, out=None):
     style = Style.of_table(table)
     blocks = _header(manifest, table) + [("nav",)]
     blocks += overview_blocks(table, definitions, target_error, out, style)
-    for (case, variant), rows in table.groupby(["case", "variant"], sort=False):
-        blocks += _case_section(definitions.of_row(rows.iloc[0]), rows, series, target_error,
-                                out, style)
+    sections = [(definitions.of_row(rows.iloc[0]), rows)
+                for _, rows in table.groupby(["case", "variant"], sort=False)]
+    for section in _render_sections(sections, series, target_error, out, style):
+        blocks += section
     if definitions.legacy:
         blocks.insert(4, ("p", "This run was stored before runs kept their case definitions: "
                                "descriptions, units and figures come from today's code."))
@@ -79,6 +80,33 @@ def write_report(run_dir, target_error=None, out=None):
     md_path.write_text(render_markdown(blocks, out))
     html_path.write_text(render_html(blocks, manifest))
     return md_path, html_path
+
+
+_SECTIONS: tuple = ()  # what forked workers render (set just before the pool forks)
+
+
+def _render_section(k):
+    sections, series, target_error, out, style = _SECTIONS
+    d, rows = sections[k]
+    return _case_section(d, rows, series, target_error, out, style)
+
+
+def _render_sections(sections, series, target_error, out, style) -> list:
+    """Each case section (its figures are most of the report's time) in its own worker
+    process, min(2, cores) at a time (forked: the run's table and series are inherited, not
+    pickled); in order, one process where fork is unavailable."""
+    import multiprocessing as mp
+    import os
+    global _SECTIONS
+    _SECTIONS = (sections, series, target_error, out, style)
+    workers = min(2, os.cpu_count() or 1, len(sections))
+    try:
+        if workers > 1 and "fork" in mp.get_all_start_methods():
+            with mp.get_context("fork").Pool(workers) as pool:
+                return pool.map(_render_section, range(len(sections)), chunksize=1)
+        return [_render_section(k) for k in range(len(sections))]
+    finally:
+        _SECTIONS = ()
 
 
 def _fmt(value, spec=".3g") -> str:

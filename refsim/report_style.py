@@ -136,10 +136,21 @@ def grid_figure(count: int):
     return fig, flat[:count]
 
 
+def _plain_log_labels(axis) -> None:
+    """'1e-08' tick labels on a log axis: the default 10^k labels go through mathtext, which
+    took a fifth of the report's rendering time."""
+    from matplotlib.ticker import LogFormatter, NullFormatter
+    if axis.get_scale() == "log":
+        axis.set_major_formatter(LogFormatter(labelOnlyBase=True))
+        axis.set_minor_formatter(NullFormatter())
+
+
 def finish_axes(ax, title: str, legend: bool = True) -> None:
     ax.set_title(title, fontsize=8.5)
-    ax.grid(True, which="both", alpha=0.25)
+    ax.grid(True, which="major", alpha=0.25)
     ax.tick_params(labelsize=7)
+    _plain_log_labels(ax.xaxis)
+    _plain_log_labels(ax.yaxis)
     if legend and ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=6, frameon=False, loc="best")
 
