@@ -115,7 +115,9 @@ def heatmap(board: pd.DataFrame, path: Path, title: str, style=None):
     cases = list(dict.fromkeys(board["case"]))
     engines = list(dict.fromkeys(board["engine"]))
     ratio = np.full((len(cases), len(engines)), np.nan)
-    fig, ax = plt.subplots(figsize=(1.6 + 1.35 * len(engines), 0.9 + 0.32 * len(cases)))
+    label_in = 0.3 + 0.062 * max((len(c) for c in cases), default=0)  # row labels, 7 pt
+    fig, ax = plt.subplots(figsize=(label_in + 1.6 + 1.35 * len(engines),
+                                    0.9 + 0.32 * len(cases)))
     ax.set_facecolor("#bbbbbb")
     for r in board.itertuples(index=False):
         i, j = cases.index(r.case), engines.index(r.engine)
@@ -130,7 +132,7 @@ def heatmap(board: pd.DataFrame, path: Path, title: str, style=None):
     bar = fig.colorbar(image, ax=ax, fraction=0.05, pad=0.02)
     bar.set_label("log10(best error / target)", fontsize=7)
     bar.ax.tick_params(labelsize=6.5)
-    return rs.save(fig, path, title)
+    return rs.save(fig, path, title, left_in=label_in, top_in=0.9)
 
 
 def _annotation(r) -> str:

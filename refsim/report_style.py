@@ -155,15 +155,16 @@ def finish_axes(ax, title: str, legend: bool = True) -> None:
         ax.legend(fontsize=6, frameon=False, loc="best")
 
 
-def save(fig, path: Path, title: str) -> Path:
-    """Suptitle, tight layout, and a palette PNG at DPI (a fraction of an RGBA PNG's size)."""
+def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.65) -> Path:
+    """Suptitle, fixed margins (inches: `left_in` for the y labels, `top_in` for the title),
+    and a palette PNG at DPI (a fraction of an RGBA PNG's size)."""
     from PIL import Image
     fig.suptitle(title, fontsize=10)
     # fixed margins in inches (tight_layout would draw the whole figure once more: it doubled
     # the report's rendering time)
     width, height = fig.get_figwidth(), fig.get_figheight()
-    fig.subplots_adjust(left=0.75 / width, right=1 - 0.15 / width, bottom=0.5 / height,
-                        top=1 - 0.65 / height, wspace=0.75 * COLUMNS / width * 1.0,
+    fig.subplots_adjust(left=left_in / width, right=1 - 0.15 / width, bottom=0.5 / height,
+                        top=1 - top_in / height, wspace=0.75 * COLUMNS / width * 1.0,
                         hspace=0.9 / PANEL[1])
     buffer = io.BytesIO()
     fig.savefig(buffer, dpi=DPI, format="png")
