@@ -238,14 +238,9 @@ def _executor(args):
     """Where the jobs run (refsim.executors): the local worker processes of --jobs, each job
     isolated in its process, or a Dask cluster (--scheduler ADDRESS | --dask-workers N)."""
     from refsim import executors
-    timeout = None
-    if args.timeout is not None:
-        try:
-            timeout = float(args.timeout)
-        except ValueError:
-            timeout = float("nan")
-        if not 0 < timeout < float("inf"):
-            raise ValueError(f"--timeout must be a number of seconds > 0, got {args.timeout!r}")
+    from refsim.options import positive_number
+    timeout = None if args.timeout is None else positive_number(
+        "--timeout", args.timeout, "a number of seconds > 0")
     if args.scheduler and args.dask_workers:
         raise ValueError("--scheduler and --dask-workers must not be given together: one "
                          "names an existing cluster, the other starts a local one")

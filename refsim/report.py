@@ -39,15 +39,9 @@ def add_arguments(parser) -> None:
 def main(args) -> int:
     from refsim.stored_runs import open_run
     run_dir = open_run("RUN_DIR", args.run_dir).dir
-    target = None
-    if args.target_error is not None:
-        try:
-            target = float(args.target_error)
-        except ValueError:
-            target = float("nan")
-        if not math.isfinite(target) or target <= 0:
-            raise ValueError(f"--target-error must be a finite number > 0, got "
-                             f"{args.target_error!r}")
+    from refsim.options import positive_number
+    target = None if args.target_error is None else positive_number("--target-error",
+                                                                     args.target_error)
     md, page = write_report(run_dir, target, Path(args.out) if args.out else None)
     print(md)
     print(page)

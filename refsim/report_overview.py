@@ -117,7 +117,7 @@ def heatmap(board: pd.DataFrame, path: Path, title: str, style=None):
     ratio = np.full((len(cases), len(engines)), np.nan)
     label_in = 0.3 + 0.062 * max((len(c) for c in cases), default=0)  # row labels, 7 pt
     fig, ax = plt.subplots(figsize=(label_in + 1.6 + 1.35 * len(engines),
-                                    0.9 + 0.32 * len(cases)))
+                                    1.4 + 0.32 * len(cases)))  # 0.9 in title, 0.5 in bottom
     ax.set_facecolor("#bbbbbb")
     for r in board.itertuples(index=False):
         i, j = cases.index(r.case), engines.index(r.engine)

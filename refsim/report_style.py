@@ -163,6 +163,9 @@ def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.6
     # fixed margins in inches (tight_layout would draw the whole figure once more: it doubled
     # the report's rendering time)
     width, height = fig.get_figwidth(), fig.get_figheight()
+    if height < 0.5 + top_in + 0.5:  # at least half an inch of axes between the margins
+        height = 0.5 + top_in + 0.5
+        fig.set_figheight(height)
     fig.subplots_adjust(left=left_in / width, right=1 - 0.15 / width, bottom=0.5 / height,
                         top=1 - top_in / height, wspace=0.75 * COLUMNS / width * 1.0,
                         hspace=0.9 / PANEL[1])
