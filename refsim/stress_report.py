@@ -30,7 +30,7 @@ def f_reason(crit: Criterion) -> str:
 
 
 def print_report(opts, spring, limits, sweep) -> None:
-    from refsim import stress  # the sweep constants (stress imports this module)
+    from refsim import stress_sweep as stress  # the sweep's constants
     crit = opts["criterion"]
     if not opts.get("sweep", True):
         print_case_report(opts, spring, limits)

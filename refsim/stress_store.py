@@ -146,7 +146,7 @@ def limit_definition(opts, spring) -> dict:
 
 
 def sweep_definition(opts, spring, k: float) -> dict:
-    from refsim import stress  # the sweep constants (stress imports this module)
+    from refsim import stress_sweep as stress  # the sweep's constants
     return definition(
         spring.case.name, sweep_variant(k),
         f"stiffness sweep at k = {k:g} N/m (m = {spring.p['mass']:g} kg, y = sqrt(k) dt), "
