@@ -176,6 +176,8 @@ def serve(fd: int) -> None:
 
 
 _LOCAL = threading.local()
+_DASK_BOXES: list[Sandbox] = []  # every worker thread's Sandbox in this process
+_DASK_LOCK = threading.Lock()
 
 
 def dask_task(task, registrations=(), timeout=None) -> tuple:
@@ -184,4 +186,16 @@ def dask_task(task, registrations=(), timeout=None) -> tuple:
     box = getattr(_LOCAL, "box", None)
     if box is None:
         box = _LOCAL.box = Sandbox(child_env(pin_threads=True))
+        with _DASK_LOCK:
+            _DASK_BOXES.append(box)
     return task[0], box.run(task, registrations, timeout)
+
+
+def close_dask_boxes() -> None:
+    """Stop the Sandbox children of the Dask worker threads in this process (a local cluster's
+    workers are threads here: their children must not outlive the run)."""
+    with _DASK_LOCK:
+        boxes = list(_DASK_BOXES)
+        _DASK_BOXES.clear()
+    for box in boxes:
+        box.close(kill=box.task is not None)
