@@ -222,15 +222,29 @@ def cmd_run(args, argv) -> int:
                        harness_s=st.harness_s, harness_overhead=share, workers=workers,
                        **{k: v for k, v in executor.describe().items() if k != "workers"})
     print_summary(table)
-    if not args.no_report:
-        from refsim.report import write_report
-        t0 = time.perf_counter()
-        md, _ = write_report(st.dir)
-        print(f"\nreport: {md} and report.html ({time.perf_counter() - t0:.1f} s)")
+    status = 0 if args.no_report else _report_after_run(st.dir)
     print(f"\nrun time {wall:.1f} s on {workers} worker(s), {st.busy_s:.1f} s of work: "
           f"harness overhead {st.harness_s:.1f} s ({100 * share:.1f} %; the rest is engines' "
           "setup, compilation, stepping and observation)")
     print(st.dir)
+    return status
+
+
+def _report_after_run(run_dir) -> int:
+    """The report of a finished run: 0, or 1 when rendering failed. An error inside the report
+    (matplotlib, a figure) is not bad input: the stored run is complete and kept, and the
+    message says so instead of exit 2's "refsim: error"."""
+    import time
+    from refsim.report import write_report
+    t0 = time.perf_counter()
+    try:
+        md, _ = write_report(run_dir)
+    except Exception as exc:  # noqa: BLE001 - any failure of rendering, reported as such
+        print(f"refsim: the report failed ({type(exc).__name__}: "
+              f"{str(exc).splitlines()[0] if str(exc) else ''}); every row is stored in "
+              f"{run_dir}: render it again with `refsim report {run_dir}`", file=sys.stderr)
+        return 1
+    print(f"\nreport: {md} and report.html ({time.perf_counter() - t0:.1f} s)")
     return 0
 
 

@@ -165,7 +165,7 @@ def _case_section(d, rows, series, target_error, out, style=None):
     for k, spec in enumerate(d.get("figures", [])):
         draw = plots.FIGURES.get(spec.get("kind"))
         if draw is not None:
-            figures.append(draw(ran, series, row_key, spec, out / "plots" / f"{slug}-fig{k}.png",
+            figures.append(draw(rows, series, row_key, spec, out / "plots" / f"{slug}-fig{k}.png",
                                 f"{title}: {spec['title']}", style))
     blocks += [("img", f, title) for f in figures if f is not None]
     orders = order_table(ran) if meaningful else pd.DataFrame()

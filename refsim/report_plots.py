@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from refsim import report_style as rs
+from refsim.report_limits import stability_limits
 
 
 def line_label(row) -> str:
@@ -180,4 +181,5 @@ def trace_over_data(rows, series: dict, key_of, spec: dict, path: Path, title: s
     return rs.save(fig, path, title)
 
 
-FIGURES = {"trace_over_data": trace_over_data}  # the kinds a case may declare
+FIGURES = {"trace_over_data": trace_over_data,  # the kinds a case may declare
+           "stability_limits": stability_limits}

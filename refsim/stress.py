@@ -269,13 +269,17 @@ def limit_theory(engine, integrator, spring, crit, variant=""):
     """(refsim equivalent, theory, its reason, finite_time, resolution) of one job: the
     case's theory from the equivalent stepper and the Sim's settings; for an oscillator the
     criterion's exact landing (`finite_time`), else the spec's declared resolution."""
-    eq = refsim_equivalent(engine, integrator)
-    stepper = get_integrator(eq) if eq else None
     sim = engine.build(spring.scene, float(spring.spec.to_dt(1.0)), integrator, variant)
     try:
         settings = sim.settings()
     finally:
         sim.close()
+    # a Sim may declare the stepper it equals on this very scene (MuJoCo's discrete is
+    # backward Euler on a spring, symplectic Euler on a hinge under gravity)
+    declared = (settings.get("integrator") or {}) if isinstance(settings, dict) else {}
+    eq = declared.get("stability_equivalent") if isinstance(declared, dict) else None
+    eq = eq or refsim_equivalent(engine, integrator)
+    stepper = get_integrator(eq) if eq else None
     th, why = spring.spec.theory(stepper, settings)
     if spring.spec.oscillator:
         ft, res = finite_time(stepper, th, crit) if stepper and not math.isnan(th) else \

@@ -142,7 +142,9 @@ def limit_definition(opts, spring) -> dict:
         "|measured - theory| of the largest stable y", units(opts), spring.case.source_hash(),
         limit_params(opts), params={**spring.p, "periods": crit.periods,
                                     "bisection_tol": opts["tol"]},
-        report_columns=["measured", "theory", "finite_time", "note"])
+        report_columns=["measured", "theory", "finite_time", "note"],
+        figures=[{"kind": "stability_limits", "x_label": f"largest stable {units(opts)}",
+                  "title": "largest stable step, measured against theory"}])
 
 
 def sweep_definition(opts, spring, k: float) -> dict:

@@ -124,12 +124,25 @@ class MujocoSim(Sim):
                 "of 2e-3); discrete is refused (backward Euler on the contact spring)")
         return out
 
+    def _stability_equivalent(self) -> dict:
+        """The refsim stepper this method equals on this scene, where it differs from the
+        engine's scene-independent `equivalents` (refsim stress's theory): `discrete` solves
+        joint stiffness and damping implicitly but leaves gravity explicit, so on a hinge,
+        whose restoring force is gravity's torque, it is the symplectic Euler step."""
+        if self.integrator == "discrete" and len(self.scene.joint_set):
+            return {"stability_equivalent": "symplectic_euler",
+                    "stability_equivalent_reason": "discrete: gravity's torque on the hinge is "
+                    "explicit (only joint stiffness and damping are implicit), nothing is "
+                    "damped: the symplectic Euler step"}
+        return {}
+
     def _base_settings(self):
         m = self.method
         return {
             "integrator": {"name": self.integrator, "order": m.order, "family": m.family,
                            "explicit": m.explicit, "symplectic": m.symplectic,
-                           "native": m.native, "note": m.note},
+                           "native": m.native, "note": m.note,
+                           **self._stability_equivalent()},
             "dtype": "float64", "threads": 1,
             "timestep": self.dt, "timestep_default_replaced": 0.002,
             "gravity": list(self.scene.gravity), "gravity_default_replaced": [0.0, 0.0, -9.81],
@@ -140,6 +153,10 @@ class MujocoSim(Sim):
             "contacts": "disabled (flag contact=disable, no geoms)",
             "inertia": f"explicit <inertial>: scene mass, diaginertia {POINT_INERTIA:g} "
                        "(point mass; scene radius/inertia unused, as in refsim's particles)",
+            # the number itself, so that a case's bound can count what it adds (the
+            # pendulum: (m L^2 + I) theta'' slows w0 by I / (2 m L^2))
+            **({"point_inertia": POINT_INERTIA}
+               if any(p.kind != "sphere" for p in self.plans) else {}),
             "fluid": "density 0, viscosity 0, wind 0",
             "drag": "joint damping: b per slide (added to c on a spring slide), b L^2 per "
                     "hinge: exact f = -b v for a point mass",

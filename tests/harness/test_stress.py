@@ -225,7 +225,10 @@ def test_quick_run_is_an_ordinary_stored_run(quick_run):
     definitions = {d["variant"]: d for d in load_definitions_list(run)}
     assert set(definitions) == set(table.variant)
     assert all(d["units"] == "y = omega dt" and d["order_meaningful"] is False
-               and d["figures"] == [] for d in definitions.values())
+               for d in definitions.values())
+    # the limits declare the measured-against-theory figure; the sweep rows none
+    assert [f["kind"] for f in definitions["stability_limit"]["figures"]] == ["stability_limits"]
+    assert all(d["figures"] == [] for v, d in definitions.items() if v != "stability_limit")
 
 
 def test_report_and_compare_read_the_stress_run(quick_run, tmp_path):
@@ -233,6 +236,8 @@ def test_report_and_compare_read_the_stress_run(quick_run, tmp_path):
     md, _ = write_report(run, out=tmp_path)
     text = md.read_text()
     assert "## stiff_spring / stability_limit" in text and "| inf | inf |" in text
+    figure = tmp_path / "plots" / "stiff_spring-stability_limit-fig0.png"
+    assert figure.stat().st_size > 1000 and figure.name in text
     assert "artificial_damping" in text and "Recommendation" not in text
     a = open_run("RUN_A", run)
     result = compare_runs(a, a, judge_time=False)

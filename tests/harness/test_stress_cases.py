@@ -74,6 +74,28 @@ def test_pendulum_generalized_limits_match_the_springs():
         assert abs(found.limit - y_ft) <= 2e-3 * max(1.0, y_ft), name
 
 
+def test_refsim_backward_euler_pendulum_is_stable_at_every_y_searched():
+    """Backward Euler on the small-amplitude pendulum is unconditionally stable: its Newton
+    solve must not stall at large omega dt (it did at y = 29.7 with the explicit-Euler
+    predictor, which put theta 880 amplitudes away)."""
+    probe, crit = Probe(get_case("pendulum")), Criterion(100)
+    found = find_limit(get_engine("refsim"), "implicit_euler", probe, crit, 1e-3, "generalized")
+    assert found.limit == math.inf
+
+
+def test_mujoco_discrete_on_the_hinge_is_held_to_symplectic_euler():
+    """MuJoCo's discrete solves joint stiffness implicitly (backward Euler on a spring) but the
+    pendulum's restoring force is gravity's torque, explicit: its theory there is the
+    symplectic Euler limit 2, declared by the Sim for this scene."""
+    pytest.importorskip("mujoco")
+    eq, th, why, _, _ = stress.limit_theory(get_engine("mujoco"), "discrete",
+                                            Probe(get_case("pendulum")), Criterion(100))
+    assert (eq, th) == ("symplectic_euler", 2.0)
+    eq, th, _, _, _ = stress.limit_theory(get_engine("mujoco"), "discrete",
+                                          Probe(get_case("stiff_spring")), Criterion(100))
+    assert (eq, th) == ("implicit_euler", math.inf)
+
+
 @pytest.mark.slow
 def test_tank_measured_limit_agrees_with_theory(tmp_path):
     """refsim's WCSPH tank (resolution 20): the quick search's limit within the declared
