@@ -63,7 +63,7 @@ def build(engine, scene, dt, integrator, variant):
     if integrator not in INTEGRATORS:
         raise ValueError(f"taichi rigid integrator must be one of {list(INTEGRATORS)}, got "
                          f"{integrator!r}")
-    return make_rigid_sim(scene, dt, integrator, variant or FORMULATIONS[0])
+    return RigidSim(scene, dt, integrator, variant)  # the base checked variant in FORMULATIONS
 
 
 def rotation_matrices(q: np.ndarray) -> np.ndarray:
@@ -80,10 +80,6 @@ def world_momentum(inertia0, q, w) -> np.ndarray:
     R = rotation_matrices(q)
     w_body = np.einsum("nji,nj->ni", R, w)
     return np.einsum("nij,nj->ni", R, np.einsum("nij,nj->ni", inertia0, w_body))
-
-
-def make_rigid_sim(scene, dt, integrator, formulation):
-    return RigidSim(scene, dt, integrator, formulation)
 
 
 def _ndarray(dtype, arr):
