@@ -335,10 +335,3 @@ def _judge_batch(system, stepper, spring, ys, criterion):
         return np.zeros(len(ys), bool)
     return (ys <= ys[finished].max()) & ~failed
 
-
-def __getattr__(name):
-    """`Spring`: the default probe (refsim.stress_spec.Probe; imported late, it imports this)."""
-    if name == "Spring":
-        from refsim.stress_spec import Probe
-        return Probe
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..common.hinges import HingeFrames
-from .runtime import to_ndarray
+from .kernel_store import to_ndarray
 from .sim import KernelSim
 
 

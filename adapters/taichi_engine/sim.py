@@ -18,7 +18,8 @@ import time
 from refsim.engine import Sim
 from refsim.integrators import get_integrator
 
-from .runtime import THREADS, effective_config, kernels, launch_overhead_us, runtime
+from .kernel_store import kernels, launch_overhead_us
+from .runtime import THREADS, effective_config, runtime
 
 NATIVE = {"symplectic_euler": "kernel kick_drift: v += h a(x, v); x += h v",
           "velocity_verlet": "kernel velocity_verlet: v += h/2 a; x += h v; a = a(x, v); "

@@ -14,7 +14,8 @@ import numpy as np
 
 from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                   plane_gravity, wall_particles)
-from .runtime import THREADS, runtime, to_ndarray
+from .kernel_store import to_ndarray
+from .runtime import THREADS, runtime
 from .sim import KernelSim
 
 SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .particles import force_stages, particle_pack
-from .runtime import to_ndarray
+from .kernel_store import to_ndarray
 from .sim import KernelSim
 
 MAX_PASSES = 100  # Gauss-Seidel impulse passes per step, at most

@@ -22,8 +22,9 @@ from refsim.report import write_report
 from refsim.store import KEY, load_definitions_list, load_results
 from refsim.stored_runs import open_run
 from refsim.integrators import get_integrator
-from refsim.stress_search import (Criterion, Spring, batch_evaluator, batch_stepper,
-                                  find_limit, finite_time, sim_evaluator, theory)
+from refsim.stress_search import (Criterion, batch_evaluator, batch_stepper, find_limit,
+                                  finite_time, sim_evaluator, theory)
+from refsim.stress_spec import Probe as Spring
 
 THEORY = {"symplectic_euler": 2.0, "symplectic_euler_dk": 2.0, "velocity_verlet": 2.0,
           "stormer_verlet": 2.0, "leapfrog": 2.0, "rk4": 2 * math.sqrt(2),
