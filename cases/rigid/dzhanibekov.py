@@ -160,12 +160,9 @@ class Dzhanibekov(RigidCase):
 
     def error_floor(self, p):
         """Round-off: n eps Wmax per step over the finest run's <= 8302 steps, times the
-        phase amplification (1 + S rate t) of `period_sensitivity`: 1e-12 far, 1e-7 near."""
+        phase amplification (1 + S rate t) of `period_sensitivity`: 1e-11 far, 2e-7 near."""
         steps = self.t_end(p) / min(self.dts(p))
         return steps * 2.2e-16 * self.motion_scale(p) * self._amplification(p)
-
-    def bodies(self, p):
-        return 1
 
     def observables(self, p, obs):
         w_body = self.body_omega(obs)
