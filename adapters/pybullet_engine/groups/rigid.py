@@ -53,6 +53,10 @@ GYROSCOPIC = {
                "in the body frame; damps |L| and energy",
 }
 
+SYMPLECTIC_NOTE = ("kick-drift, but not symplectic on rotation: |L| and E change every step "
+                   "by a signed amount (explicit gyroscopic: grow; implicit: shrink), a "
+                   "secular drift, not a bounded oscillation")
+
 
 def claims(scene) -> bool:
     """Scenes holding rigid bodies (other parts with them are refused by the parts check)."""
@@ -160,7 +164,8 @@ class PybulletRigidSim(Sim):
                   "with the implicit gyroscopic impulse, then positions)")
         w_h = float(np.max(np.linalg.norm(self.rigid.angular_velocity, axis=1))) * self.dt
         return {
-            "integrator": {**INTEGRATOR, "native": native}, "dtype": "float64",
+            "integrator": {**INTEGRATOR, "native": native, "symplectic": False,
+                           "symplectic_note": SYMPLECTIC_NOTE}, "dtype": "float64",
             "threads": 1, "connection": "DIRECT", "formulation": self.variant,
             "useMaximalCoordinates": self.variant == "maximal",
             "fixedTimeStep": prm["fixedTimeStep"], "numSubSteps": prm["numSubSteps"],

@@ -57,7 +57,7 @@ class PrincipalFrames:
     q_axes: np.ndarray
 
     @classmethod
-    def of(cls, inertia: np.ndarray) -> "PrincipalFrames":
+    def of(cls, inertia: np.ndarray) -> PrincipalFrames:
         moments, axes = np.linalg.eigh(np.asarray(inertia, float))
         improper = np.linalg.det(axes) < 0
         axes[improper, :, 2] *= -1.0  # flip one axis: a proper rotation, same diagonal form
