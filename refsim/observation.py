@@ -55,6 +55,9 @@ OBSERVABLES: tuple[Observable, ...] = (
     Observable("q", "rigid", "(n, 4)", "1", "orientations, unit quaternions (w, x, y, z), "
                "scalar first, body to world"),
     Observable("w", "rigid", "(n, 3)", "rad/s", "angular velocities, world frame"),
+    Observable("orientation_defect", "rigid", "(n,)", "1", "how far the stored orientation "
+               "left the rotations: |q|^2 - 1, the squared norm removed by renormalising "
+               "(cumulative), or max |R^T R - I|; as the formulation defines it", required=False),
     Observable("x", "networks", "(N, 3)", "m", "node positions, every network's nodes in "
                "scene order"),
     Observable("v", "networks", "(N, 3)", "m/s", "node velocities"),

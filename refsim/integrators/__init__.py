@@ -15,6 +15,7 @@ from .adaptive import AdaptiveDormandPrince
 from .base import Integrator, StepFailure, configuration_update
 from .explicit_rk import ExplicitRK
 from .implicit import BaraffWitkin, ImplicitEuler
+from .implicit_midpoint import ImplicitMidpoint
 from .symplectic import (
     Leapfrog,
     StormerVerlet,
@@ -36,6 +37,7 @@ __all__ = [
     "BaraffWitkin",
     "ExplicitRK",
     "ImplicitEuler",
+    "ImplicitMidpoint",
     "Integrator",
     "Leapfrog",
     "StepFailure",
@@ -64,6 +66,7 @@ _FACTORIES = {
     "velocity_verlet": VelocityVerlet,
     "leapfrog": Leapfrog,
     "baraff_witkin": BaraffWitkin,
+    "implicit_midpoint": ImplicitMidpoint,
 }
 INTEGRATORS = tuple(_FACTORIES)
 PARAMETRISED = {"rk2": "alpha in (0, 1], default 2/3 (Ralston)",

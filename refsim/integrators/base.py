@@ -9,6 +9,9 @@ lives elsewhere, in `refsim.models`):
     system.linear              True when a is affine in (x, v): one Newton step is exact
     system.velocity_dependent  True when a depends on v (damping, drag, Baumgarte terms)
     system.shift(x, dx) -> x'  optional: the configuration update (jax-md's `shift_fn`)
+    system.dexpinv(dx, v) -> k optional, with `shift`: the inverse differential of the map
+                                 dx -> shift(x, dx) at dx applied to a tangent velocity v;
+                                 explicit RK uses it to correct its stage slopes (RKMK)
 
 `shift` moves a configuration x by an increment dx in its tangent space: the exponential map
 for unit quaternions (x of shape (..., 4), dx a rotation vector of shape (..., 3)), a wrap for
