@@ -16,7 +16,7 @@ def _builds():
         case = get_case(name)
         for variant in case.quick_variants:
             scene = case.scene(case.variant_params(variant))
-            for formulation in ENGINE.variants(scene):
+            for formulation in ENGINE.formulations(scene):
                 yield name, variant, formulation
 
 
