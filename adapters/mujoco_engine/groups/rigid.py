@@ -8,17 +8,22 @@ numpy's eigh; a diagonal tensor is given as it is (no rotation). No geoms, conta
 
 Facts (mujoco 4.0.0, measured; reported in `Sim.settings()`):
 - MuJoCo's free joint integrates the orientation by the exponential map of the body-frame
-  angular velocity and normalises the stored quaternion after every position update, so
-  `orientation_defect` = |q|^2 - 1 of qpos stays at round-off: the renormalisation hides any
-  drift (MODELS.md), which is why it is observed;
+  angular velocity and normalises the stored quaternion after every position update (unless
+  ||q| - 1| <= mjMINVAL = 1e-15), so `orientation_defect` = |q|^2 - 1 of qpos stays within
+  2e-15 + round-off: the renormalisation hides any drift (MODELS.md); observed to show it;
 - it refuses an inertia whose principal moments violate A + B >= C ("use balanceinertia"):
   refused here with the reason rather than balanced (balancing changes the body);
 - the free joint's qvel angular part is in the body frame: the scene's world-frame w is rotated
   into it at build time and back when observed.
-Integrators (`RIGID_METHODS`): Euler (kick then exponential-map drift, the gyroscopic term
-explicit: the refsim symplectic_euler + quat_exp step exactly), RK4, implicit (gyroscopic
-derivative implicit), implicitfast (no Coriolis/centripetal derivative, so on a free body with
-no damping its step is Euler's); see each note.
+Integrators (`rigid_methods`), measured on the torque-free asymmetric top (tests):
+- Euler: kick then exponential-map drift with the gyroscopic term explicit, i.e. refsim's
+  symplectic_euler with quat_exp to round-off; |L| and E GROW at first order in h;
+- RK4: order 4 on body w, q and world w; conserves |L| and E to its truncation error;
+- implicit and implicitfast: the same step on free bodies (mujoco >= 3.11 applies the
+  gyroscopic derivative of a standalone free body in implicitfast too, changelog 3.11.0;
+  MODELS.md's "implicitfast drops the gyroscopic terms" predates it): linearised backward Euler
+  on the gyroscopic term, so |L| and E DECAY at the rate Euler gains them (the tumbling is
+  damped, not the spin about a principal axis).
 """
 from __future__ import annotations
 
@@ -30,25 +35,34 @@ from refsim.engine import ModelGroup
 
 WHO = "mujoco adapter"
 RIGID_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")
+TREATED_IMPLICITLY = {  # what each integrator solves implicitly on free bodies
+    "symplectic_euler": "nothing (velocity first, then positions with the new velocity)",
+    "rk4": "nothing (explicit)",
+    "implicit": "the velocity derivative of the gyroscopic (Coriolis/centripetal) force",
+    "implicitfast": "the velocity derivative of each free body's gyroscopic force (mujoco "
+                    ">= 3.11; other Coriolis/centripetal derivatives are skipped)",
+}
 
 _NOTES = {
     "symplectic_euler": (
         "semi-implicit Euler: v, w_body += h M^-1 (f - c(q_k, v_k)) with the gyroscopic term "
         "w x I w explicit, then x += h v, q <- q exp(h w_body / 2) (exponential map, then "
-        "normalised): refsim's symplectic_euler with quat_exp. Symplectic in translation only: "
-        "the explicit gyroscopic kick makes |L| and E grow by O(h^2 |w|^2) per step"),
+        "normalised): refsim's symplectic_euler with quat_exp to round-off. Symplectic in "
+        "translation only: the explicit gyroscopic kick adds h^2 |L x w|^2 to |L|^2 every "
+        "step, so a tumbling body gains |L| and E at first order in h"),
     "rk4": (
-        "classical 4-stage Runge-Kutta on (qpos, qvel); each stage's orientation is q0 moved "
-        "by the exponential map of the weighted sum of stage body angular velocities (no "
-        "commutator correction, so the orientation is not a Lie-group RK4); body w is order 4"),
+        "classical 4-stage Runge-Kutta on (qpos, qvel), stage orientations moved by the "
+        "exponential map; measured order 4 on body w, q and world w (torque-free top); "
+        "|L| and E drift only by its truncation error"),
     "implicit": (
-        "implicit-in-velocity Euler: (M - h dc/dv) dv = h (f - c): the derivative of the "
-        "Coriolis/gyroscopic force is implicit (linearised backward Euler on w), positions "
-        "explicit; on a tumbling body this damps |L| and E"),
+        "implicit-in-velocity Euler: (M - h dc/dv) dv = h (f - c), the derivative of the "
+        "Coriolis/gyroscopic force implicit (linearised backward Euler on w), positions "
+        "explicit: a tumbling body loses |L| and E at the rate Euler gains them"),
     "implicitfast": (
-        "implicit-in-velocity Euler without the Coriolis/centripetal (RNE) derivatives: only "
-        "damping and actuator derivatives are implicit, and a free body has none, so its step "
-        "is the Euler step (gyroscopic term explicit)"),
+        "implicit-in-velocity Euler without the RNE derivatives in general, but (mujoco >= "
+        "3.11) with the gyroscopic derivative of each standalone free body solved on its own "
+        "6x6 block: on free bodies the same step as implicit to round-off, so it damps the "
+        "tumbling (|L| and E lost at first order in h) instead of gaining it"),
 }
 
 

@@ -12,7 +12,7 @@ import numpy as np
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
 from ..spheres import rotate
-from .rigid import principal_frame
+from .rigid import TREATED_IMPLICITLY, principal_frame
 
 INERTIA_RTOL = 1e-14  # the compiled R diag(moments) R^T vs the scene tensor, relative to its
 # largest entry: R (from the normalised compiled quaternion) is exact to a few ulps and each
@@ -116,6 +116,8 @@ class MujocoRigidSim(MujocoSim):
                     "joint_limits", "energy_flag", "eulerdamp"):
             out.pop(key, None)
         out.update(self._rigid_settings())
+        out["integrator"]["implicit"] = not self.method.explicit
+        out["integrator"]["treated_implicitly"] = TREATED_IMPLICITLY[self.integrator]
         return out
 
     def _rigid_settings(self) -> dict:
@@ -137,8 +139,9 @@ class MujocoRigidSim(MujocoSim):
                           "quaternion) stays within 2e-15 + round-off; the renormalisation "
                           "hides any drift of the update itself",
             "gyroscopic": "the bias force c = w x I w is MuJoCo's RNE term: explicit in "
-                          "symplectic_euler, rk4 and implicitfast, its velocity derivative "
-                          "implicit in implicit",
+                          "symplectic_euler and rk4; its velocity derivative implicit in "
+                          "implicit and (mujoco >= 3.11, free bodies) implicitfast, which "
+                          "then take the same step",
             "contacts": "disabled (flag contact=disable, no geoms)",
             "eulerdamp": "disabled (nothing is damped: no joint damping on free joints)",
             "damping": "none: free joints without damping, armature 0, frictionloss 0",
