@@ -95,6 +95,8 @@ class Formulation:
     description = ""
     size = 4
     orthogonal = True  # the stored orientation is a rotation (to round-off)
+    # the highest order any stepper reaches through this update (None: the stepper's own)
+    order_limit = None
     dinv = None  # the coordinate map's inverse differential, or None
 
     def from_quaternion(self, q):
@@ -169,6 +171,10 @@ class QuaternionNormalised(Formulation):
 
 class MatrixPrinted(Formulation):
     name, size, orthogonal = "matrix_printed", 9, False
+    # R + [phi]_x R differs from exp([phi]_x) R by O(|phi|^2) a step and is not on the group,
+    # so no stage correction exists: first order under every stepper (measured 1.0 for
+    # symplectic Euler, midpoint, RK4 and the implicit midpoint)
+    order_limit = 1
     description = "rotation matrix R + h [w]_x R as the slides print it, no re-orthonormalisation"
 
     def from_quaternion(self, q):
@@ -196,6 +202,7 @@ class MatrixPrinted(Formulation):
 
 class MatrixPolar(MatrixPrinted):
     name, orthogonal = "matrix_polar", True
+    order_limit = None  # the polar factor is exp(atan|phi| axis): back on the group
     description = ("rotation matrix R + h [w]_x R re-orthonormalised to its polar factor "
                    "(SVD U V^T)")
     dinv = staticmethod(dpolar_inverse)

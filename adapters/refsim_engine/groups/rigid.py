@@ -51,7 +51,7 @@ class RigidSim(SteppedSim):
 
     def settings(self):
         corrected = hasattr(self.system, "dexpinv")
-        return {**self.base_settings(),
+        return {**self.base_settings(), "integrator": self._integrator_entry(),
                 "formulation": self.formulation.name,
                 "formulation_description": self.formulation.description,
                 "formulations": {f.name: f.description for f in FORMULATIONS.values()},
@@ -59,6 +59,23 @@ class RigidSim(SteppedSim):
                 "rk_stage_correction": ("dexpinv of the formulation's map (RKMK)" if corrected
                                         else "none (the map is not on the group)"),
                 "angular_damping": 0.0, "linear_damping": 0.0, "velocity_clamp": None}
+
+
+    def _integrator_entry(self) -> dict:
+        """The stepper as tolerances read it, on this system: not symplectic (the gyroscopic
+        term is explicit and (q, w) are not canonical: symplectic Euler's energy grows,
+        measured), and no higher order than the formulation allows."""
+        entry = dict(self.stepper.describe())
+        limit = self.formulation.order_limit
+        if limit is not None and entry["order"] > limit:
+            entry.update(order=limit, nominal_order=self.stepper.order,
+                         order_note=f"{self.formulation.name} is first order under any "
+                                    "stepper: its update leaves the rotation group")
+        if entry.get("symplectic"):
+            entry.update(symplectic=False, symplectic_note="not symplectic on a rigid body: "
+                         "the gyroscopic term is explicit and (q, w) are not canonical "
+                         "coordinates; the energy of a tumbling body grows")
+        return entry
 
 
 def _claims(scene) -> bool:
