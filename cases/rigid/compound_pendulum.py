@@ -18,12 +18,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import ADAPTIVE_REASON, Param, adaptive_rtol, is_symplectic, order_tolerance
-from refsim.case import roundoff_tolerance
+from cases.particles.pendulum import exact_pendulum, period_sensitivity
+from refsim.case import (
+    ADAPTIVE_REASON,
+    Param,
+    adaptive_rtol,
+    is_symplectic,
+    order_tolerance,
+    roundoff_tolerance,
+)
 from refsim.scene import RigidBodies, Scene
 from refsim.scene.pivots import RigidPivots
-
-from cases.particles.pendulum import exact_pendulum, period_sensitivity
 
 from . import RigidCase, rotation_quaternion
 from .heavy_top import PRINTED_NOTE, effective_order
@@ -136,7 +141,7 @@ class CompoundPendulum(RigidCase):
             reason = (f"order {order}: theta0 expm1(w0 t (w0 dt)^p) (see order_tolerance), times "
                       f"1 + kappa w0 t = {growth:.3g}: an energy error changes the period by "
                       "kappa = dlnT/dlnE of it (cases.particles.pendulum.period_sensitivity)")
-        roundoff, roundoff_reason = roundoff_tolerance(int(round(p["duration"] / dt)),
+        roundoff, roundoff_reason = roundoff_tolerance(round(p["duration"] / dt),
                                                        1.0 + theta0)
         return tol + roundoff * growth, reason + roundoff_reason + (
             f", times 1 + kappa w0 t = {growth:.3g}") + (PRINTED_NOTE if printed else "")

@@ -133,9 +133,11 @@ def axis_observables(p, q, w_body) -> dict:
 
 
 def _stays_up(engine, integrator, dt, variant, p, periods, factor) -> bool:
-    from cases.rigid.heavy_top import CASE  # the case as registered (this module's CASE)
+    from cases.rigid.heavy_top import (
+        CASE,  # the case as registered (this module's CASE)
+    )
     sim = engine.build(CASE.scene(p), dt, integrator, variant)
-    chunk = max(1, int(round(0.25 / (threshold_rate(p) * dt))))  # a quarter radian of Omega_c
+    chunk = max(1, round(0.25 / (threshold_rate(p) * dt)))  # a quarter radian of Omega_c
     end = periods * 2.0 * np.pi / threshold_rate(p)
     limit = np.cos(factor * p["tilt"])
     while sim.time() < end and not sim.failure:

@@ -4,8 +4,16 @@ by bisection on refsim against I3^2 w3^2 = 4 I1' M g l."""
 import numpy as np
 import pytest
 
-from cases.rigid.heavy_top import (CASE, find_threshold, linear_tilt_ratio, pivot_moments,
-                                   reference_state, sleeping_threshold, spin, threshold_rate)
+from cases.rigid.heavy_top import (
+    CASE,
+    find_threshold,
+    linear_tilt_ratio,
+    pivot_moments,
+    reference_state,
+    sleeping_threshold,
+    spin,
+    threshold_rate,
+)
 from refsim.registry import get_engine
 
 ENGINE = get_engine("refsim")
@@ -14,7 +22,7 @@ ENGINE = get_engine("refsim")
 def _run(variant, integrator, dt, formulation="quat_exp", overrides=None):
     p = CASE.variant_params(variant, overrides)
     sim = ENGINE.build(CASE.scene(p), dt, integrator, formulation)
-    n = int(round(p["duration"] / dt))
+    n = round(p["duration"] / dt)
     every = max(1, n // 100)
     frames = [sim.observe()]
     while sim.steps < n:

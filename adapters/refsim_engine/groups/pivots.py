@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.integrators import get_integrator
 from refsim.engine import ModelGroup
+from refsim.integrators import get_integrator
 from refsim.models.rigid_orientation import get_formulation
 from refsim.models.rigid_pivot import PivotedRigidSystem
 from refsim.scene.pivots import check_on_anchor, pivots_of
