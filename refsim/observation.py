@@ -58,6 +58,11 @@ OBSERVABLES: tuple[Observable, ...] = (
     Observable("orientation_defect", "rigid", "(n,)", "1", "how far the stored orientation "
                "left the rotations: |q|^2 - 1, the squared norm removed by renormalising "
                "(cumulative), or max |R^T R - I|; as the formulation defines it", required=False),
+    Observable("angular_momentum", "rigid", "(n, 3)", "kg m^2/s", "world angular momentum of "
+               "each body about its centre of mass, or about its pivot when it has one "
+               "(RigidPivots)", required=False),
+    Observable("pivot_gap", "rigid_pivots", "(k,)", "m", "distance of each pivot's body point "
+               "from its anchor (0 for a joint in generalized coordinates)", required=False),
     Observable("x", "networks", "(N, 3)", "m", "node positions, every network's nodes in "
                "scene order"),
     Observable("v", "networks", "(N, 3)", "m/s", "node velocities"),

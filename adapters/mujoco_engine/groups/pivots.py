@@ -36,6 +36,9 @@ from refsim.scene.pivots import check_on_anchor, pivots_of
 from ..methods import METHODS
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
+from ..spheres import rotate
+from .rigid import principal_frame
+from .rigid_sim import conjugate
 
 WHO = "mujoco adapter"
 PIVOT_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")
@@ -61,29 +64,6 @@ _NOTES = {
     "implicitfast": "implicit-in-velocity Euler without the RNE derivatives (symmetric part "
                     "only)",
 }
-
-
-# -- quaternion helpers (w, x, y, z), vectorised over bodies ----------------------------------
-def rotate(quat: np.ndarray, vec: np.ndarray) -> np.ndarray:
-    """Rotate each vec (n, 3) by its unit quaternion (n, 4)."""
-    w, u = quat[:, :1], quat[:, 1:]
-    t = 2.0 * np.cross(u, vec)
-    return vec + w * t + np.cross(u, t)
-
-
-def conjugate(quat: np.ndarray) -> np.ndarray:
-    return quat * np.array([1.0, -1.0, -1.0, -1.0])
-
-
-def principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(moments (3,), axes (3, 3)), inertia = axes diag(moments) axes^T, det axes = +1. A diagonal
-    tensor keeps its diagonal and the identity (exact)."""
-    if not np.any(inertia - np.diag(np.diag(inertia))):
-        return np.diag(inertia).copy(), np.eye(3)
-    moments, axes = np.linalg.eigh(inertia)
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] = -axes[:, 2]
-    return moments, axes
 
 
 # -- the group ----------------------------------------------------------------------------------

@@ -29,7 +29,7 @@ def arena_bytes(nbody: int) -> int:
     return ARENA_BASE + ARENA_PER_BODY * nbody
 
 
-def _conjugate(quat: np.ndarray) -> np.ndarray:
+def conjugate(quat: np.ndarray) -> np.ndarray:
     return quat * np.array([1.0, -1.0, -1.0, -1.0])
 
 
@@ -83,7 +83,7 @@ class MujocoRigidSim(MujocoSim):
         qvel angular = R^T w, the free joint's body frame."""
         r = self.scene.rigid
         self.data.qpos[:] = np.hstack([r.position, r.orientation]).ravel()
-        w_body = rotate(_conjugate(r.orientation), r.angular_velocity)
+        w_body = rotate(conjugate(r.orientation), r.angular_velocity)
         self.data.qvel[:] = np.hstack([r.velocity, w_body]).ravel()
 
     def _check_inertia(self):

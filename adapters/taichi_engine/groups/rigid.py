@@ -12,7 +12,7 @@ Observables: x, v, q, w (refsim.observation, world frame), and the extras
 - "orientation_defect" (n,): |q|^2 - 1 under quat_exp; under quat_normalised the product of the
   squared norms removed by every normalisation so far, minus 1 (the drift it hid);
 - "energy" (n,) J per body: 1/2 m |v|^2 + 1/2 w . L - m g . x;
-- "L" (n, 3) kg m^2/s: world angular momentum I_w w about each COM.
+- "angular_momentum" (n, 3) kg m^2/s: world angular momentum I_w w about each COM.
 """
 from __future__ import annotations
 
@@ -126,7 +126,7 @@ class RigidSim(KernelSim):
                   + 0.5 * np.einsum("ni,ni->n", w, L) - body.mass * (x @ np.asarray(
                       self.scene.gravity, float)))
         return {"x": x, "v": v, "q": q, "w": w, "orientation_defect": defect,
-                "energy": energy, "L": L}
+                "energy": energy, "angular_momentum": L}
 
     def settings(self):
         base = self.base_settings()

@@ -182,9 +182,9 @@ def test_observation_contract_energy_and_momentum():
     assert obs["orientation_defect"].shape == obs["energy"].shape == (1,)
     # rk4 is exact on constant gravity and order 2 on the rotation: E and L move by
     # O(h^2) (1e-6) at most over t = 2; measured ~1e-12 (printed)
-    print("rk4 dE", obs["energy"] - first["energy"], "dL", obs["L"] - first["L"])
+    print("rk4 dE", obs["energy"] - first["energy"], "dL", obs["angular_momentum"] - first["angular_momentum"])
     assert np.abs(obs["energy"] - first["energy"]).max() < 1e-6
-    assert np.abs(obs["L"] - first["L"]).max() < 1e-6
+    assert np.abs(obs["angular_momentum"] - first["angular_momentum"]).max() < 1e-6
 
 
 def test_claims_only_rigid_scenes_and_refuses_other_steppers():
