@@ -194,7 +194,9 @@ class HeavyTop(RigidCase):
                 "sleeping_stable": {"spin_ratio": 1.5, "tilt": 1e-3, "duration": 3.0},
                 "sleeping_unstable": {"spin_ratio": 0.7, "tilt": 1e-3, "duration": 5.0}}
     quick_variants = ("nutation",)
-    default_variants = ("nutation", "sleeping_stable")
+    # sleeping_stable and sleeping_unstable run by name (and in `refsim bench sleeping_top`):
+    # the default run stays under 5 minutes
+    default_variants = ("nutation",)
 
     def scene(self, p):
         _check(p)
