@@ -1,0 +1,69 @@
+"""mujoco's rolling group on the rolling_disc case: s(t) against the exact a t^2 / 2 within the
+case's tolerance (split step a t h / 2, soft-contact radius, round-off), rolling residual and
+spin. Rows that exceed it and that no derivation bounds are xfail(strict) with the numbers."""
+import numpy as np
+import pytest
+
+from cases.rigid.rolling_disc import CASE
+from refsim import registry
+
+pytest.importorskip("mujoco")
+ENGINE = registry.get_engine("mujoco")
+INTEGRATOR = "symplectic_euler"
+
+XFAIL = {"slipping": "unresolved: MuJoCo's sliding contact (d = 0.9999, elliptic or pyramidal cone, any "
+         "impratio, noslip) pushes the disc up: it hops (gap up to 0.7 mm, contact lost), "
+         "s(1) err 2.035e-3 > a t h / 2 = 2.028e-3 at dt = 1 ms, spin off by 0.22 rad/s"}
+
+
+def test_rk4_rolls_to_the_contact_compliance():
+    """RK4 integrates the constant acceleration exactly: what is left (measured 2.5e-8 m at
+    1 ms) is the near-hard contact's creep, far inside the soft-contact bound."""
+    p = CASE.variant_params("disc")
+    err, tol, _ = run(p, 2e-3, "rk4")
+    assert err["s"] <= tol and err["s"] < 1e-6
+
+
+def run(p, dt, integrator=INTEGRATOR):
+    """Errors (max over every step of 1 s) of s, residual, spin; the case's tolerance."""
+    sim = ENGINE.build(CASE.scene(p), dt, integrator)
+    frames, times = {k: [] for k in ("x", "v", "w", "q")}, []
+    for _ in range(round(p["duration"] / dt)):
+        sim.step(1)
+        obs = sim.observe()
+        times.append(obs["t"])
+        for key, frame in frames.items():
+            frame.append(np.asarray(obs[key]))
+    assert sim.failure is None
+    observed = CASE.observables(p, {k: np.array(v) for k, v in frames.items()})
+    reference = CASE.reference(p, np.array(times))
+    err = {k: float(np.max(np.abs(observed[k] - reference[k]))) for k in reference}
+    tol, reason = CASE.tolerance(p, integrator, 1, dt, settings=sim.settings())
+    sim.close()
+    return err, tol, reason
+
+
+def test_group_claims_the_scene():
+    scene = CASE.scene(CASE.variant_params("disc"))
+    assert ENGINE.group_for(scene).name == "rolling"
+    assert ENGINE.supports(scene, INTEGRATOR) is None
+
+
+@pytest.mark.parametrize("variant", [
+    pytest.param(v, marks=pytest.mark.xfail(strict=True, reason=XFAIL[v])) if v in XFAIL else v
+    for v in CASE.variants])
+def test_distance_within_tolerance(variant):
+    p = CASE.variant_params(variant)
+    err, tol, reason = run(p, 1e-3)  # the finest of CASE.dts
+    assert err["s"] <= tol, reason
+
+
+@pytest.mark.parametrize("variant", ["disc", "hoop"])
+def test_rolling_residual_within_one_free_kick(variant):
+    """v - w r stays within g sin theta dt: at most one step's tangential kick is taken before
+    a contact released exactly touching acts (measured: pymunk exactly that, MuJoCo 1e-7,
+    pybullet 1e-15 at dt = 2 ms)."""
+    p = CASE.variant_params(variant)
+    dt = 2e-3
+    err, _, _ = run(p, dt)
+    assert err["residual"] <= p["g"] * np.sin(p["incline"]) * dt * (1 + 1e-9)
