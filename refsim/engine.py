@@ -150,7 +150,8 @@ class ModelGroup:
     """One model group of an engine, declared as MODEL_GROUP in adapters/<engine>/groups/<x>.py.
 
     name: the group (e.g. "rigid"); claims(scene): whether this group runs the scene (e.g. it
-    holds rigid bodies); parts / features: the scene part kinds and features it simulates;
+    holds rigid bodies); parts / features: the scene part kinds and features it simulates
+    (None: not checked, `supports` alone answers, as for a group that only refuses);
     build(engine, scene, dt, integrator, variant) -> Sim; supports(engine, scene, integrator)
     -> None or the reason; variants(engine, scene) -> formulations (default ("",));
     integrators: the names it offers (None: the engine's)."""
@@ -242,7 +243,7 @@ class Engine:
             missing = sorted(kinds() - set(parts))
             if missing:
                 return f"{self.name} does not simulate {', '.join(missing)}"
-        missing = sorted(scene.features() - set(features))
+        missing = sorted(scene.features() - set(features)) if features is not None else []
         if missing:
             return f"{self.name} does not simulate {', '.join(missing)}"
         if scene.dim not in self.dims:

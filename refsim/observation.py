@@ -61,8 +61,6 @@ OBSERVABLES: tuple[Observable, ...] = (
     Observable("angular_momentum", "rigid", "(n, 3)", "kg m^2/s", "world angular momentum of "
                "each body about its centre of mass, or about its pivot when it has one "
                "(RigidPivots)", required=False),
-    Observable("pivot_gap", "rigid_pivots", "(k,)", "m", "distance of each pivot's body point "
-               "from its anchor (0 for a joint in generalized coordinates)", required=False),
     Observable("x", "networks", "(N, 3)", "m", "node positions, every network's nodes in "
                "scene order"),
     Observable("v", "networks", "(N, 3)", "m/s", "node velocities"),

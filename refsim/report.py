@@ -160,7 +160,7 @@ def _case_section(d, rows, series, target_error, out, style=None):
                           f"{title}: convergence", style, floor, show_orders=meaningful),
         plots.energy_history(ran, series, row_key, d["energy_scale"],
                              out / "plots" / f"{slug}-energy.png",
-                             f"{title}: energy at the reference dt", style),
+                             f"{title}: energy drift so far at the reference dt", style),
     ]
     for k, spec in enumerate(d.get("figures", [])):
         draw = plots.FIGURES.get(spec.get("kind"))

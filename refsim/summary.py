@@ -8,8 +8,11 @@ import numpy as np
 import pandas as pd
 
 
-def progress_printer(stream=sys.stderr):
-    """A one-line progress bar when `stream` is a terminal; silent otherwise."""
+def progress_printer(stream=None):
+    """A one-line progress bar when `stream` (default: sys.stderr at call time, not at import:
+    a stream swapped since, as under pytest's capture, may be closed) is a terminal; silent
+    otherwise."""
+    stream = sys.stderr if stream is None else stream
     if not stream.isatty():
         return None
     start = time.perf_counter()

@@ -21,7 +21,9 @@ from refsim.sandbox import death_reason
 from refsim.store import RunStore, read_journal, row_key
 
 HANG_S = 600.0
-TIMEOUT_S = 4.0
+# long enough for a fresh sandbox child to start and import refsim on a loaded 2-core
+# machine (4 s timed a SIGSEGV job out while 8 processes shared the cores)
+TIMEOUT_S = 8.0
 
 
 class AbortSim(PointMassSim):

@@ -4,7 +4,7 @@ import pytest
 
 from refsim.registry import get_engine
 from refsim.registry import get_case
-from refsim.integrators import INTEGRATORS, get_integrator
+from refsim.integrators import get_integrator
 
 DT, STEPS = 1e-3, 1000
 FIRST_ORDER = {"explicit_euler": -1, "symplectic_euler_dk": -1, "implicit_euler": +1,
@@ -22,7 +22,8 @@ def _heights(integrator):
     return p, np.array(z)
 
 
-@pytest.mark.parametrize("name", [n for n in INTEGRATORS if n != "dopri5_adaptive"])
+@pytest.mark.parametrize("name", [n for n in get_engine("refsim").integrators
+                                  if n != "dopri5_adaptive"])
 def test_free_fall_heights_equal_each_steppers_discrete_closed_form(name):
     p, z = _heights(name)
     k = np.arange(1, STEPS + 1)
