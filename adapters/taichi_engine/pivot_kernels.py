@@ -20,8 +20,8 @@ removed multiplied into `norm_product`), selected by the argpack's runtime `norm
 Loops: bodies outermost (parallel), each body's n steps serial inside (bit-reproducible).
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """
-from .kernel_types import f64, nd_f64, nd_vec3, ti, vec3
-from .rigid_kernels import FORMULATIONS, mat3, nd_mat3, nd_vec4, quat_matrix, rotate_by
+from .kernel_types import f64, nd_f64, nd_vec3, ti
+from .rigid_kernels import FORMULATIONS, nd_mat3, nd_vec4, quat_matrix, rotate_by
 
 __all__ = ["FORMULATIONS", "STEPPERS", "pivot_kernels", "pivot_t"]
 
@@ -86,5 +86,3 @@ def pivot_kernels(integrator: str):
                          f"{integrator!r}")
     return None, advance_kernel(STEPPERS[integrator])
 
-
-_ = (mat3, vec3)  # the vector and matrix types the argpack's ndarrays hold
