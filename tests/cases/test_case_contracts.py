@@ -148,6 +148,21 @@ def _verdict(case, p, formulation, integrator, row):
                                            f"{row['tolerance']:.3g}")
 
 
+# variants whose reference dt leaves methods above first order unresolved by design (the
+# contract below still holds them to finite runs under the derived bound, flagged unresolved)
+CAPPED_BY_DESIGN = {
+    ("spin_drift", "fast"): "h|w| = 0.125 at the reference dt over w t = 250 rad: a second-order "
+                            "phase error of order w t (h w)^2 = 3.9 rad; the variant is there to "
+                            "show each formulation's drift at a large step",
+    ("dzhanibekov", "near_separatrix"): "the flip time's sensitivity near the separatrix "
+                                        "(1 + S rate t = 1.2e5) multiplies a second-order error "
+                                        "past the motion at 5 ms",
+    ("heavy_top", "sleeping_unstable"): "the falling top amplifies every error by exp(Omega_c "
+                                        "sqrt(1 - r^2) t) (r = 0.7) before the fall: a "
+                                        "second-order error reaches the motion",
+}
+
+
 def _capped_verdict(case, p, formulation, integrator, row):
     """The derived bound exceeds the motion itself: this dt does not resolve the case with this
     method and the row promises no accuracy (its tolerance is the motion scale). At these
@@ -155,7 +170,8 @@ def _capped_verdict(case, p, formulation, integrator, row):
     (not symplectic); the run must still be finite and stay under the derived bound, and the
     row is `unresolved`, never within tolerance."""
     declared = json.loads(row["settings"])["integrator"]
-    if declared["order"] != 1 or declared["symplectic"]:
+    by_design = (case.name, row["variant"]) in CAPPED_BY_DESIGN
+    if not by_design and (declared["order"] != 1 or declared["symplectic"]):
         return f"tolerance capped for {declared}"
     column = case.tolerance_column(p)
     derived, _ = case.tolerance(p, integrator, row["nominal_order"], row["dt"], formulation,
