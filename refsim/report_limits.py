@@ -26,7 +26,8 @@ def stability_limits(rows, series, key_of, spec: dict, path: Path, title: str, s
         return None
     table = rows.assign(measured=rows["measured"].astype(float),
                         theory=rows["theory"].astype(float))
-    table = table[np.isfinite(table["measured"]) | np.isfinite(table["theory"])
+    # inf is a result (stable at every y searched), NaN is none
+    table = table[~np.isnan(table["measured"]) | ~np.isnan(table["theory"])
                   | (table["status"] != "ok")]
     if table.empty:
         return None
@@ -58,7 +59,7 @@ def stability_limits(rows, series, key_of, spec: dict, path: Path, title: str, s
     rs.finish_axes(ax, "", legend=False)
     handles, names = ax.get_legend_handles_labels()
     ax.legend(handles, names, fontsize=6, frameon=False, loc="lower center",
-              bbox_to_anchor=(0.5, 1.0), ncol=len(names), borderaxespad=0.2)
+              bbox_to_anchor=(0.5, 1.0), ncol=math.ceil(len(names) / 2), borderaxespad=0.2)
     ax.grid(True, axis="x", alpha=0.25)
     return rs.save(fig, path, title, left_in=2.3)
 
