@@ -80,11 +80,13 @@ def verdict_counts(table: pd.DataFrame) -> dict:
             "unresolved": int(unresolved.sum())}
 
 
-def print_summary(table: pd.DataFrame, stream=sys.stdout) -> None:
+def print_summary(table: pd.DataFrame, stream=None) -> None:
     """Per case and variant: every engine and integrator side by side at each dt (err_max,
     energy drift, us/step; '!' marks an error above the case tolerance) with the measured
     convergence order; rows that did not run show their status and reason once. The last line
-    counts the rows by status, the ok ones by verdict ('?' unresolved, counted apart)."""
+    counts the rows by status, the ok ones by verdict ('?' unresolved, counted apart).
+    `stream` defaults to sys.stdout at call time (see progress_printer)."""
+    stream = sys.stdout if stream is None else stream
     for (case, variant), group in table.groupby(["case", "variant"], sort=False):
         dts = sorted((d for d in group["dt"].unique() if np.isfinite(d)), reverse=True)
         print(f"\n{case} / {variant}", file=stream)
