@@ -65,6 +65,10 @@ class Case:
     variants: dict = {"default": {}}
     quick_variants: tuple = ("default",)
     default_variants: tuple = ()  # what a plain `refsim run` covers; () means every variant
+    # the variants on which a plain `refsim run` also runs the engines' alternative
+    # formulations (at the reference dt); () means every variant. --full, or naming the
+    # variant, runs them everywhere
+    alternatives_variants: tuple = ()
     divergence_factor = 100.0  # |E - E0| beyond this many energy scales: diverged
     tolerance_norm = "err_max"  # the error column the tolerance bounds
     samples = 400  # about this many observations per run (every step when fewer steps)

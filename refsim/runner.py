@@ -80,8 +80,9 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
 
     The dt sweep runs each engine's default formulation; its alternatives (the KKT and penalty
     pendulum, taichi's kernel-launch-per-step, MuJoCo's coupled contacts...) compare terms at
-    the case's reference dt only (not at all with `quick`), unless `full` (or explicit `dts`)
-    asks for the whole sweep."""
+    the case's reference dt only (not at all with `quick`, nor on variants outside a case's
+    `alternatives_variants` unless they are named), unless `full` (or explicit `dts`) asks
+    for the whole sweep."""
     cases = list(cases or case_names())
     for name in cases:
         get_case(name)
@@ -104,6 +105,9 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
             ref = [case.reference_dt(p)]
             sweep = dts or (ref if quick else case.dts(p))
             alt_sweep = sweep if (full or dts) else ([] if quick else ref)
+            if not (full or dts or variants) and case.alternatives_variants and \
+                    variant not in case.alternatives_variants:
+                alt_sweep = []
             untimed = [] if (quick or dts) else [d for d in case.order_dts(p) if d not in sweep]
             for dt in sweep + untimed:
                 check_steps(dt, case.t_end(p), f"{cname}/{variant}", max_steps)

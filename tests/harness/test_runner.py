@@ -154,3 +154,17 @@ def test_pendulum_bound_counts_an_engines_point_inertia():
     with_inertia, why = case.tolerance(p, "rk4", 4, 1e-4, "", {"point_inertia": 1e-12})
     assert with_inertia - plain == pytest.approx(1.0 * np.sqrt(9.81) * 10.0 * 0.5e-12)
     assert "bob's own inertia I = 1e-12 kg m^2" in why
+
+
+def test_alternative_formulations_run_on_the_cases_declared_variants_only():
+    """The pendulum compares its maximal-coordinate formulations on the default swing; the
+    large swing runs them when named or with --full."""
+    from refsim.runner import expand
+    plain = expand(cases=["pendulum"], engines=["refsim"])
+    forms = {(j.variant, j.engine_variant) for j in plain}
+    assert ("default", "kkt") in forms and ("default", "penalty") in forms
+    assert {v for v, f in forms if f in ("kkt", "penalty")} == {"default"}
+    named = expand(cases=["pendulum"], engines=["refsim"], variants=["large_amplitude"])
+    assert {j.engine_variant for j in named} == {"generalized", "kkt", "penalty"}
+    full = expand(cases=["pendulum"], engines=["refsim"], full=True)
+    assert ("large_amplitude", "kkt") in {(j.variant, j.engine_variant) for j in full}

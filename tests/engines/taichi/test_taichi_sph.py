@@ -114,11 +114,11 @@ def test_settings_report_model_and_particle_counts():
 
 
 def test_runs_are_bit_identical_and_variants_agree():
-    """Serial kernel twice, one launch per step, and the multi-threaded `parallel` stages
-    (gathers, no atomics): the same bits."""
+    """Serial kernel twice and the multi-threaded `parallel` stages (gathers, no atomics): the
+    same bits."""
     p, scene, dt = _scene()
     runs = []
-    for variant in ("", "", "launch_per_step", "parallel"):
+    for variant in ("", "", "parallel"):
         sim = TAICHI.build(scene, dt, VV, variant)
         sim.step(200)
         o = sim.observe()
@@ -131,8 +131,7 @@ def test_refusals_and_non_finite_state():
     assert "velocity_verlet" in TAICHI.supports(scene, "rk4")
     with pytest.raises(ValueError, match="velocity_verlet"):
         TAICHI.build(scene, dt, "symplectic_euler")
-    assert TAICHI.supports(scene, VV) is None and TAICHI.variants(scene) == (
-        "", "launch_per_step", "parallel")
+    assert TAICHI.supports(scene, VV) is None and TAICHI.variants(scene) == ("", "parallel")
     # far past the acoustic CFL limit, without delta-SPH and with the pressure clamp: the
     # density goes negative and Tait's power makes nan within 40 steps (with delta-SPH the
     # particles fly apart to ~1e12 m instead, finite)
