@@ -20,12 +20,12 @@ from refsim.registry import get_case, get_engine
 STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
 # Accuracy passes longer than LONG_RUN_S give the timing sample themselves; a timing pass stops
 # repeating once its runs have taken BUDGET_S. At 0.5 s both, timing took 207 s of the default
-# run's 780 s of work (2,107 rows); at 0.25 s, 116 s (computed from that run's own rows). What
-# a repeat buys, the min of 3 instead of 2 for a 0.1-0.25 s row, is within the spread of a
-# shared 2-core machine; a per-call overhead inside a 0.25 s accuracy pass is <= 400 calls of
-# ~30 us (a taichi launch): 5 % at most, for taichi rows only (see _run_job).
-LONG_RUN_S = 0.25
-BUDGET_S = 0.25
+# run's 780 s of work (2,107 rows); at 0.2 s, 100 s (computed from that run's own rows). What
+# a repeat buys, the min of 3 instead of 2 for a 0.07-0.2 s row, is within the spread of a
+# shared 2-core machine; a per-call overhead inside a 0.2 s accuracy pass is <= 400 calls of
+# ~30 us (a taichi launch): 6 % at most, for taichi rows only (see _run_job).
+LONG_RUN_S = 0.2
+BUDGET_S = 0.2
 
 
 @dataclass(frozen=True)
@@ -133,7 +133,7 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
         # a long run: its step() calls in the accuracy pass (observation outside them) are
         # the one timing sample; repeating it would only double the wall time. Its <= ~400
         # calls cost ~30 us each at most in per-call overhead (a taichi launch, ENGINE_NOTES):
-        # <= 12 ms, < 5 % of a run this long
+        # <= 12 ms, <= 6 % of a run this long
         row.update(step_s=stepping_s, step_s_median=stepping_s, repeats=1,
                    us_per_step=stepping_s / steps * 1e6, timing="accuracy-pass step calls")
     elif repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
