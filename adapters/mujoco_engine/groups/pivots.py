@@ -37,8 +37,7 @@ from ..methods import METHODS
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
 from ..spheres import rotate
-from .rigid import principal_frame
-from .rigid_sim import conjugate
+from .rigid_sim import conjugate, principal_frame
 
 WHO = "mujoco adapter"
 PIVOT_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")

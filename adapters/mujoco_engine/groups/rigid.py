@@ -33,16 +33,10 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 
+from .rigid_sim import MujocoRigidSim, principal_frame
+
 WHO = "mujoco adapter"
 RIGID_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")
-TREATED_IMPLICITLY = {  # what each integrator solves implicitly on free bodies
-    "symplectic_euler": "nothing (velocity first, then positions with the new velocity)",
-    "rk4": "nothing (explicit)",
-    "implicit": "the velocity derivative of the gyroscopic (Coriolis/centripetal) force",
-    "implicitfast": "the velocity derivative of each free body's gyroscopic force (mujoco "
-                    ">= 3.11; other Coriolis/centripetal derivatives are skipped)",
-}
-
 _NOTES = {
     "symplectic_euler": (
         "semi-implicit Euler: v, w_body += h M^-1 (f - c(q_k, v_k)) with the gyroscopic term "
@@ -73,18 +67,6 @@ def rigid_methods() -> dict:
             for name in RIGID_INTEGRATORS}
 
 
-def principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(moments (3,), axes (3, 3)) with inertia = axes diag(moments) axes^T and det axes = +1
-    (a rotation: the inertial frame). A diagonal tensor keeps its diagonal and the identity
-    (exact: no decomposition round-off)."""
-    if not np.any(inertia - np.diag(np.diag(inertia))):
-        return np.diag(inertia).copy(), np.eye(3)
-    moments, axes = np.linalg.eigh(inertia)
-    if np.linalg.det(axes) < 0:
-        axes[:, 2] = -axes[:, 2]
-    return moments, axes
-
-
 def inertia_refusal(scene) -> str | None:
     """Why MuJoCo would refuse a body's inertia (principal moments A + B < C), or None."""
     for i, tensor in enumerate(scene.rigid.inertia):
@@ -108,7 +90,6 @@ def _build(engine, scene, dt, integrator, variant):
     if integrator not in RIGID_INTEGRATORS:
         raise ValueError(f"mujoco rigid integrator must be one of {list(RIGID_INTEGRATORS)}, "
                          f"got {integrator!r}")
-    from .rigid_sim import MujocoRigidSim
     return MujocoRigidSim(scene, dt, integrator, rigid_methods()[integrator])
 
 

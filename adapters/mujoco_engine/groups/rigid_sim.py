@@ -12,7 +12,6 @@ import numpy as np
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
 from ..spheres import rotate
-from .rigid import TREATED_IMPLICITLY, principal_frame
 
 INERTIA_RTOL = 1e-14  # the compiled R diag(moments) R^T vs the scene tensor, relative to its
 # largest entry: R (from the normalised compiled quaternion) is exact to a few ulps and each
@@ -22,6 +21,26 @@ ARENA_PER_BODY = 4096  # bytes of mjData arena per free body: measured peak use 
 # mujoco 4.0.0) is 96 B/body for Euler and implicitfast, 800 for RK4, 3600 for implicit (linear
 # in n from 10^3 to 10^4 bodies); the default arena failed to allocate 10^4 bodies
 ARENA_BASE = 1 << 20  # bytes: the fixed part (MuJoCo's own default arena is a few MiB)
+
+
+TREATED_IMPLICITLY = {  # what each integrator solves implicitly on free bodies
+    "symplectic_euler": "nothing (velocity first, then positions with the new velocity)",
+    "rk4": "nothing (explicit)",
+    "implicit": "the velocity derivative of the gyroscopic (Coriolis/centripetal) force",
+    "implicitfast": "the velocity derivative of each free body's gyroscopic force (mujoco "
+                    ">= 3.11; other Coriolis/centripetal derivatives are skipped)",
+}
+
+def principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(moments (3,), axes (3, 3)) with inertia = axes diag(moments) axes^T and det axes = +1
+    (a rotation: the inertial frame). A diagonal tensor keeps its diagonal and the identity
+    (exact: no decomposition round-off)."""
+    if not np.any(inertia - np.diag(np.diag(inertia))):
+        return np.diag(inertia).copy(), np.eye(3)
+    moments, axes = np.linalg.eigh(inertia)
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] = -axes[:, 2]
+    return moments, axes
 
 
 def arena_bytes(nbody: int) -> int:
