@@ -37,12 +37,10 @@ from ..methods import METHODS
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
 from ..spheres import rotate
-from .rigid_sim import conjugate, principal_frame
+from .rigid_sim import INERTIA_RTOL, check_compiled_bodies, conjugate, principal_frame
 
 WHO = "mujoco adapter"
 PIVOT_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")
-INERTIA_RTOL = 1e-14  # compiled R diag(d) R^T vs the scene tensor, relative to its largest
-# entry: each entry is a 3-term sum of products of numbers exact to a few ulps (~10 eps =
 # 2.2e-15); 1e-14 catches any reordering or transposition (errors of order 1)
 TREATED_IMPLICITLY = {
     "symplectic_euler": "nothing (velocity first, then the orientation with the new velocity)",
@@ -169,19 +167,9 @@ class MujocoPivotSim(MujocoSim):
         self.data.qvel[:] = rotate(conjugate(q0), r.angular_velocity[self.order]).ravel()
 
     def _check_inertia(self):
-        """Masses, COM offsets and inertia tensors compiled are the scene's."""
-        m, k, r = self.model, self.k, self.scene.rigid
-        rot = np.zeros((k, 9))
-        for i in range(k):  # build time only
-            self.mj.mju_quat2Mat(rot[i], m.body_iquat[i + 1])
-        rot = rot.reshape(k, 3, 3)
-        tensor = np.einsum("nij,nj,nkj->nik", rot, m.body_inertia[1:k + 1], rot)
-        want = r.inertia[self.order]
-        scale = np.abs(want).max(axis=(1, 2))
-        if not (np.array_equal(m.body_mass[1:k + 1], r.mass[self.order]) and
-                np.array_equal(m.body_ipos[1:k + 1], -self.pivots.body_point) and
-                np.all(np.abs(tensor - want).max(axis=(1, 2)) <= INERTIA_RTOL * scale)):
-            raise RuntimeError("mujoco compiled other masses/inertias than the scene's")
+        r = self.scene.rigid
+        check_compiled_bodies(self.model, self.mj, r.mass[self.order], r.inertia[self.order],
+                              -self.pivots.body_point)
 
     # -- observation --------------------------------------------------------------------------
     def _observe(self):

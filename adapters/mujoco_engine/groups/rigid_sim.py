@@ -76,6 +76,23 @@ def rigid_scene_xml(scene, dt, method, mj) -> str:
             f'<worldbody>{bodies}</worldbody></mujoco>')
 
 
+def check_compiled_bodies(model, mj, mass, inertia, com_offset) -> None:
+    """The compiled bodies 1..k carry exactly `mass` (k,) and the COM offsets `com_offset`
+    (k, 3) from their frames, and `inertia` (k, 3, 3) to INERTIA_RTOL (MuJoCo stores principal
+    moments and axes: the tensor is rebuilt from them); RuntimeError otherwise."""
+    k = len(mass)
+    rot = np.zeros((k, 9))
+    for i in range(k):  # build time only
+        mj.mju_quat2Mat(rot[i], model.body_iquat[i + 1])
+    rot = rot.reshape(k, 3, 3)
+    tensor = np.einsum("nij,nj,nkj->nik", rot, model.body_inertia[1:k + 1], rot)
+    scale = np.abs(inertia).max(axis=(1, 2))
+    if not (np.array_equal(model.body_mass[1:k + 1], mass) and
+            np.array_equal(model.body_ipos[1:k + 1], com_offset) and
+            np.all(np.abs(tensor - inertia).max(axis=(1, 2)) <= INERTIA_RTOL * scale)):
+        raise RuntimeError("mujoco compiled other masses/inertias than the scene's")
+
+
 class MujocoRigidSim(MujocoSim):
     """Free bodies: qpos (n, 7) = (x, q), qvel (n, 6) = (v world, w body frame)."""
 
@@ -106,18 +123,8 @@ class MujocoRigidSim(MujocoSim):
         self.data.qvel[:] = np.hstack([r.velocity, w_body]).ravel()
 
     def _check_inertia(self):
-        """Masses, COM offsets and inertia tensors compiled are the scene's."""
-        m, n, r = self.model, self.n, self.scene.rigid
-        rot = np.zeros((n, 9))
-        for i in range(n):  # build time only
-            self.mj.mju_quat2Mat(rot[i], m.body_iquat[i + 1])
-        rot = rot.reshape(n, 3, 3)
-        tensor = np.einsum("nij,nj,nkj->nik", rot, m.body_inertia[1:n + 1], rot)
-        scale = np.abs(r.inertia).max(axis=(1, 2))
-        if not (np.array_equal(m.body_mass[1:n + 1], r.mass) and
-                np.array_equal(m.body_ipos[1:n + 1], np.zeros((n, 3))) and
-                np.all(np.abs(tensor - r.inertia).max(axis=(1, 2)) <= INERTIA_RTOL * scale)):
-            raise RuntimeError("mujoco compiled other masses/inertias than the scene's")
+        r = self.scene.rigid
+        check_compiled_bodies(self.model, self.mj, r.mass, r.inertia, np.zeros((self.n, 3)))
 
     # -- observation --------------------------------------------------------------------------
     def _observe(self):
