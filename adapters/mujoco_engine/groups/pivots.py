@@ -41,7 +41,6 @@ from .rigid_sim import INERTIA_RTOL, check_compiled_bodies, conjugate, principal
 
 WHO = "mujoco adapter"
 PIVOT_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")
-# 2.2e-15); 1e-14 catches any reordering or transposition (errors of order 1)
 TREATED_IMPLICITLY = {
     "symplectic_euler": "nothing (velocity first, then the orientation with the new velocity)",
     "rk4": "nothing (explicit)",
