@@ -43,6 +43,9 @@ class SpherePairs(SingleImpactCase):
         "oblique_friction": {"impact": 0.1, "friction": 0.3, "spin": 20.0},
     }
     quick_variants = ("head_on", "oblique")
+    # the 1:3 pair at e = 0.5 combines what head_on_e0.5 and head_on_1to3 test apart: it runs by
+    # name, so the default run stays under 5 minutes with the rigid cases
+    default_variants = ("head_on", "head_on_e0.5", "head_on_1to3", "oblique", "oblique_friction")
 
     def validate(self, overrides=None):
         p = super().validate(overrides)

@@ -187,3 +187,24 @@ class RollingDisc(RigidCase):
 
 
 CASE = RollingDisc()
+
+
+def observed_errors(engine, p, dt, integrator, order=1):
+    """Run the case on `engine` for its duration, observing every step: (max |observed -
+    reference| of each reference observable, the case's tolerance at `order`, its reason).
+    The engines' rolling tests share it; AssertionError if the engine reports a failure."""
+    sim = engine.build(CASE.scene(p), dt, integrator)
+    frames, times = {k: [] for k in ("x", "v", "w", "q")}, []
+    for _ in range(round(p["duration"] / dt)):
+        sim.step(1)
+        obs = sim.observe()
+        times.append(obs["t"])
+        for key, frame in frames.items():
+            frame.append(np.asarray(obs[key]))
+    assert sim.failure is None, sim.failure
+    observed = CASE.observables(p, {k: np.array(v) for k, v in frames.items()})
+    reference = CASE.reference(p, np.array(times))
+    err = {k: float(np.max(np.abs(observed[k] - reference[k]))) for k in reference}
+    tol, reason = CASE.tolerance(p, integrator, order, dt, settings=sim.settings())
+    sim.close()
+    return err, tol, reason

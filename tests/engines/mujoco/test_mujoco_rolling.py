@@ -4,7 +4,7 @@ spin. Rows that exceed it and that no derivation bounds are xfail(strict) with t
 import numpy as np
 import pytest
 
-from cases.rigid.rolling_disc import CASE
+from cases.rigid.rolling_disc import CASE, observed_errors
 from refsim import registry
 
 pytest.importorskip("mujoco")
@@ -26,21 +26,7 @@ def test_rk4_rolls_to_the_contact_compliance():
 
 def run(p, dt, integrator=INTEGRATOR):
     """Errors (max over every step of 1 s) of s, residual, spin; the case's tolerance."""
-    sim = ENGINE.build(CASE.scene(p), dt, integrator)
-    frames, times = {k: [] for k in ("x", "v", "w", "q")}, []
-    for _ in range(round(p["duration"] / dt)):
-        sim.step(1)
-        obs = sim.observe()
-        times.append(obs["t"])
-        for key, frame in frames.items():
-            frame.append(np.asarray(obs[key]))
-    assert sim.failure is None
-    observed = CASE.observables(p, {k: np.array(v) for k, v in frames.items()})
-    reference = CASE.reference(p, np.array(times))
-    err = {k: float(np.max(np.abs(observed[k] - reference[k]))) for k in reference}
-    tol, reason = CASE.tolerance(p, integrator, 1, dt, settings=sim.settings())
-    sim.close()
-    return err, tol, reason
+    return observed_errors(ENGINE, p, dt, integrator)
 
 
 def test_group_claims_the_scene():
