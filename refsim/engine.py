@@ -269,6 +269,12 @@ class Engine:
             return group.variants(self, scene) if group.variants else ("",)
         return self.variants(scene)
 
+    def matrix_formulations(self, scene) -> tuple[str, ...]:
+        """The formulations `refsim run` puts in its matrix: all of them (`formulations`),
+        unless an engine leaves out one that the run's own settings make a copy of another
+        (taichi's `parallel` kernel on one thread). They stay buildable by name."""
+        return self.formulations(scene)
+
     def build(self, scene, dt: float, integrator: str, variant: str = "") -> Sim:
         dt = float(dt)
         if not math.isfinite(dt) or dt <= 0:

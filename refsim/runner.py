@@ -135,7 +135,7 @@ def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep, u
     if not specs:  # none of the asked integrators runs this scene: one row says why
         spec = (integrators or offered)[0]
         return [Job(cname, variant, engine.name, "", spec, float("nan"))]
-    forms = engine.formulations(scene)
+    forms = engine.matrix_formulations(scene)
     return [Job(cname, variant, engine.name, ev, spec, dt)
             for k, ev in enumerate(forms) for spec in specs
             for dt in (sweep if k == 0 else alt_sweep)] + [

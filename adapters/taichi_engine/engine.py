@@ -7,7 +7,7 @@ from refsim.engine import Engine
 from ..common.checks import (body_to_body_springs, linear_drag, non_sphere_bodies,
                              rods_per_body, spheres_without_inertia, springs_on_rod_bodies,
                              walls_without_contact)
-from .runtime import import_taichi
+from .runtime import THREADS, import_taichi
 
 WHO = "taichi adapter"  # how the reasons name this engine
 
@@ -40,6 +40,16 @@ class TaichiEngine(Engine):
         if scene.fluid is not None:
             return FLUID_VARIANTS
         return CONTACT_VARIANTS if has_contacts(scene) else VARIANTS
+
+    def matrix_formulations(self, scene):
+        """Without `parallel` on fluids when taichi runs on one thread (THREADS, the default):
+        it is then the serial kernel's arithmetic (bit-identical, tested) launched once per
+        step, which adds no physics to the matrix and says nothing about parallel speed (30 s
+        of the default run's work); `refsim bench sph` measures the threads."""
+        forms = self.formulations(scene)
+        if scene.fluid is not None and THREADS == 1:
+            return tuple(f for f in forms if f != "parallel")
+        return forms
 
     def _supports(self, scene, integrator):
         if scene.fluid is not None:

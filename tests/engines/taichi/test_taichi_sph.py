@@ -144,3 +144,13 @@ def test_refusals_and_non_finite_state():
     row = accuracy("hydrostatic_tank", "hydrostatic", "taichi", VV, dt,
                    resolution=10)  # blows up to huge finite values: the runner's energy check
     assert row["status"] == "diverged" and "energy" in row["reason"]
+
+
+def test_the_run_matrix_leaves_out_parallel_on_one_thread():
+    """On one thread `parallel` is the serial kernel's arithmetic (the test above: the same
+    bits), so `refsim run` leaves it out of its matrix; it stays buildable by name."""
+    from adapters.taichi_engine.runtime import THREADS
+    p, scene, dt = _scene()
+    forms = TAICHI.matrix_formulations(scene)
+    assert forms == (("",) if THREADS == 1 else ("", "parallel"))
+    assert "parallel" in TAICHI.formulations(scene)
