@@ -37,7 +37,8 @@ from ..methods import METHODS
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
 from ..spheres import rotate
-from .rigid_sim import INERTIA_RTOL, check_compiled_bodies, conjugate, principal_frame
+from .rigid_sim import (INERTIA_RTOL, PARTICLE_SETTINGS, check_compiled_bodies, conjugate,
+                        engine_energy, principal_frame)
 
 WHO = "mujoco adapter"
 PIVOT_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")
@@ -194,17 +195,12 @@ class MujocoPivotSim(MujocoSim):
         return out
 
     def _engine_energy(self) -> float:
-        mj, m, d = self.mj, self.model, self.data
-        mj.mj_forward(m, d)  # ENGINE_NOTES: energy describes the state only after mj_forward
-        mj.mj_energyPos(m, d)
-        mj.mj_energyVel(m, d)
-        return float(d.energy[0] + d.energy[1])
+        return engine_energy(self.mj, self.model, self.data)
 
     # -- settings -----------------------------------------------------------------------------
     def settings(self):
         out = self._base_settings()
-        for key in ("contacts", "inertia", "drag", "bodies", "armature", "frictionloss",
-                    "joint_limits", "energy_flag", "eulerdamp"):
+        for key in PARTICLE_SETTINGS:
             out.pop(key, None)
         out["integrator"]["implicit"] = not self.method.explicit
         out["integrator"]["treated_implicitly"] = TREATED_IMPLICITLY[self.integrator]

@@ -76,6 +76,19 @@ def rigid_scene_xml(scene, dt, method, mj) -> str:
             f'<worldbody>{bodies}</worldbody></mujoco>')
 
 
+# base-settings keys that describe the particle scenes, not rigid bodies
+PARTICLE_SETTINGS = ("contacts", "inertia", "drag", "bodies", "armature", "frictionloss",
+                     "joint_limits", "energy_flag", "eulerdamp")
+
+
+def engine_energy(mj, model, data) -> float:
+    """MuJoCo's own kinetic + potential energy of the current state."""
+    mj.mj_forward(model, data)  # ENGINE_NOTES: energy describes the state only after mj_forward
+    mj.mj_energyPos(model, data)
+    mj.mj_energyVel(model, data)
+    return float(data.energy[0] + data.energy[1])
+
+
 def check_compiled_bodies(model, mj, mass, inertia, com_offset) -> None:
     """The compiled bodies 1..k carry exactly `mass` (k,) and the COM offsets `com_offset`
     (k, 3) from their frames, and `inertia` (k, 3, 3) to INERTIA_RTOL (MuJoCo stores principal
@@ -139,17 +152,12 @@ class MujocoRigidSim(MujocoSim):
                 "engine_energy": self._engine_energy()}
 
     def _engine_energy(self) -> float:
-        mj, m, d = self.mj, self.model, self.data
-        mj.mj_forward(m, d)  # ENGINE_NOTES: energy describes the state only after mj_forward
-        mj.mj_energyPos(m, d)
-        mj.mj_energyVel(m, d)
-        return float(d.energy[0] + d.energy[1])
+        return engine_energy(self.mj, self.model, self.data)
 
     # -- settings -----------------------------------------------------------------------------
     def settings(self):
         out = self._base_settings()
-        for key in ("contacts", "inertia", "drag", "bodies", "armature", "frictionloss",
-                    "joint_limits", "energy_flag", "eulerdamp"):
+        for key in PARTICLE_SETTINGS:
             out.pop(key, None)
         out.update(self._rigid_settings())
         out["integrator"]["implicit"] = not self.method.explicit
