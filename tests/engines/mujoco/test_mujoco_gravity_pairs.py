@@ -202,7 +202,8 @@ def test_frozen_rk4_drifts_where_the_callback_does_not():
 def test_figure_eight_returns_within_the_order_bound(integrator, variant, order, steps):
     """After one period the exact orbit is back at its start; the return error of a method of
     order p halves p times per halving of h: e(h/2) <= e(h) / 2^(p - 0.3). The floor (initial
-    state and period given to 8 decimals: ~1e-8) is far below the errors (measured 0.1..1e-4)."""
+    state and period given to 8 decimals: ~1e-8) is far below the errors (measured: Euler
+    0.024, 0.012 at T/400, T/800; RK4 callback 1.5e-4, 6.2e-6 at T/100, T/200, order 4.6)."""
     scene = figure_eight()
     coarse, fine = (return_error(scene, integrator, variant, EIGHT_PERIOD, n) for n in steps)
     assert fine <= coarse / 2.0 ** (order - ORDER_SLACK)
