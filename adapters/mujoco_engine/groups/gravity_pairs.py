@@ -207,8 +207,7 @@ class MujocoGravitySim(MujocoSim):
         return out
 
     def _integrator_notes(self) -> dict:
-        frozen = self.variant == "" and self.integrator == "rk4"
+        staged = self.integrator == "rk4" and self.variant == "passive_callback"
         return {"nominal_order": METHODS[self.integrator].order,
-                "force_evaluations_per_step": 4 if self.integrator == "rk4" and not
-                self.variant == "" else 1,
-                "force_frozen_over_step": frozen or self.integrator != "rk4"}
+                "force_evaluations_per_step": 4 if staged else 1,
+                "force_frozen_over_step": not staged}

@@ -118,10 +118,8 @@ class PybulletGravitySim(Sim):
 
     def close(self):
         if getattr(self, "client", None) is not None:
-            try:
+            if self.p.isConnected(physicsClientId=self.client):
                 self.p.disconnect(physicsClientId=self.client)
-            except Exception:  # already gone (interpreter shutdown)
-                pass
             self.client = None
 
     def __del__(self):

@@ -11,7 +11,7 @@ falls at order 2 (measured 2.00), hiding the method's order.
 Figure-eight: Chenciner-Montgomery (MODELS.md 6), G = m = 1, period 6.32591398.
 mujoco is imported on purpose: CI must have every engine (fail, never skip).
 """
-import mujoco  # noqa: F401  (fail, never skip, without the engine)
+import mujoco  # fail, never skip, without the engine
 import numpy as np
 import pytest
 
