@@ -1,0 +1,61 @@
+"""advection_vortex: every stepper's run equals its exact discrete solution to round-off, the
+radius grows by |R(iy)| a step, and the errors against the flow converge at the nominal order."""
+import numpy as np
+import pytest
+
+from cases.particle_fields.advection_vortex import AXIS, CASE, CENTRE
+from refsim.engine import Engine
+from refsim.integrators.first_order import get_first_order
+from refsim.job import Job, run_job
+from refsim.models.advection import vortex_radius_factor
+from refsim import registry
+
+FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")
+
+
+@pytest.fixture(autouse=True)
+def _registered():
+    registry.register("case", CASE.name, "cases.particle_fields.advection_vortex:CASE")
+    yield
+    registry.unregister("case", CASE.name)
+
+
+@pytest.mark.parametrize("integrator", FIELD_STEPPERS)
+def test_error_is_the_exact_discrete_deviation(integrator):
+    """err_max against the flow equals the exact discrete deviation to round-off: within the
+    tolerance's round-off term of it, from both sides."""
+    p, dt = CASE.variant_params("default", {"particles": 50}), 0.1
+    row = run_job(Job(CASE.name, "default", "refsim", "", integrator, dt,
+                      params=(("particles", 50),)), repeats=0)
+    deviation, _ = CASE.discrete_deviation(p, integrator, dt)
+    roundoff = row["tolerance"] - deviation
+    assert row["status"] == "ok" and row["within_tol"]
+    assert abs(row["err_max"] - deviation) <= roundoff
+
+
+@pytest.mark.parametrize("integrator", FIELD_STEPPERS)
+def test_radius_growth_rate(integrator):
+    """ln(r_k / r_0) / t = ln|R(iy)| / h to round-off: each step rounds r by <= 4 eps
+    relative (the stages' sums), so ln r drifts by <= 4 k eps, the rate (divided by t = k h)
+    by <= 4 eps / h; doubled for the radius and the log's own rounding."""
+    p, dt = CASE.variant_params("default", {"particles": 50}), 0.1
+    row = run_job(Job(CASE.name, "default", "refsim", "", integrator, dt,
+                      params=(("particles", 50),)), repeats=0)
+    want = np.log(vortex_radius_factor(get_first_order(integrator), dt * p["omega"])) / dt
+    assert abs(row["radius_growth_rate"] - want) <= 8 * np.finfo(float).eps / dt
+
+
+def test_second_order_steppers_refused_with_a_reason():
+    scene = CASE.scene(CASE.variant_params("default"))
+    engine = registry.get_engine("refsim")
+    reason = engine.supports(scene, "symplectic_euler")
+    assert reason is not None and "first-order system p' = u(p)" in reason
+    assert engine.supports(scene, "rk4") is None
+    assert isinstance(engine, Engine)
+
+
+def test_case_contract():
+    p = CASE.variant_params("default")
+    assert CASE.order_meaningful and min(CASE.dts(p)) > max(CASE.order_dts(p))
+    assert max(CASE.dts(p)) / min(CASE.order_dts(p)) >= 10  # a decade for the order fit
+    assert np.allclose(np.linalg.norm(AXIS), 1.0) and len(CENTRE) == 3
