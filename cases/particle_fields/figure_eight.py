@@ -1,0 +1,189 @@
+"""Figure-eight three-body choreography (Chenciner & Montgomery, Annals of Mathematics 152
+(2000) 881; initial conditions of Simo, as quoted in MODELS.md sec. 6): three equal masses
+(G = m = 1) chase each other around one figure-eight curve in the x-y plane (z = 0):
+x1 = -x2 = (0.97000436, -0.24308753), x3 = 0, v3 = (-0.93240737, -0.86473146),
+v1 = v2 = -v3 / 2, period T = 6.32591398. Variants: `one_period` (default) and
+`hundred_periods` (by name: energy drift over 100 periods, symplectic bounded against RK4's
+secular growth; the extra metric `energy_growth` tells them apart).
+
+Reference: a converged in-house solution, refsim's `dopri5_adaptive` at rtol 1e-12 (atol
+1e-15) landing on a grid of REF_POINTS_PER_PERIOD points per period, between them the quintic
+Hermite interpolant of x, v, a at both ends. Its error: interpolation 1.7e-11 m (at the
+midpoints, against landing there) plus integration 1.5e-11 m (against rtol 1e-13 at t = T):
+REFERENCE_ERROR = 5e-11 m bounds their sum. Compared observable `x` (m, the three positions,
+(T, 3, 3)), error = Euclidean norm over the bodies.
+The 8-digit initial conditions do not close the orbit exactly: the return error
+|x(T) - x(0)| of the converged solution is RETURN_FLOOR (measured with the tight run above);
+the extra metric `return_error` (after whole periods only) is meaningful only above it.
+Extra metrics: `return_error` (m), `momentum_drift` max |P - P0| / (sum m |v|)(0),
+`angular_momentum_drift` max |L - L0| / (sum m |x| |v|)(0) (L0 is 0 to the ICs' digits, so
+an absolute scale), `energy_growth` max |E - E0| over the second half of the run / over the
+first half (about 1: bounded, symplectic; about 2: linear secular drift).
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol, is_symplectic, \
+    roundoff_tolerance
+from refsim.integrators import AdaptiveDormandPrince
+from refsim.models.nbody_gravity import GravitySystem, pair_jacobian
+from refsim.scene import Particles, Scene
+from refsim.scene.gravity_pairs import GravityPairs
+
+from ._orbits import invariants_of, orbit_tolerance, vector_drift
+
+PERIOD = 6.32591398
+X1 = (0.97000436, -0.24308753, 0.0)
+V3 = (-0.93240737, -0.86473146, 0.0)
+MASSES = np.ones(3)
+REF_POINTS_PER_PERIOD = 256
+REFERENCE_RTOL = 1e-12
+REFERENCE_ERROR = 5e-11  # m: bound on the reference's error (measured 3.2e-11: docstring)
+RETURN_FLOOR = 1e-7  # m: |x(T) - x(0)| of the converged solution (measured 5.03e-8, times 2)
+STEPS_PER_PERIOD = (50, 158, 500)  # the timed dt sweep (a decade), as steps per period
+
+
+def initial_state():
+    x = np.array([X1, np.negative(X1), (0.0, 0.0, 0.0)])
+    v3 = np.array(V3)
+    return x, np.array([-0.5 * v3, -0.5 * v3, v3])
+
+
+@lru_cache(maxsize=4)
+def reference_grid(periods: float):
+    """(t, x, v, a) of the converged solution on REF_POINTS_PER_PERIOD points per period."""
+    system = GravitySystem(MASSES)
+    count = int(round(periods * REF_POINTS_PER_PERIOD))
+    t = np.linspace(0.0, periods * PERIOD, count + 1)
+    x0, v0 = initial_state()
+    stepper = AdaptiveDormandPrince(rtol=REFERENCE_RTOL, atol=REFERENCE_RTOL * 1e-3)
+    h = t[1] - t[0]
+    state = stepper.start(system, 0.0, x0.reshape(-1), v0.reshape(-1), h)
+    xs, vs = [state[0]], [state[1]]
+    for k in range(count):  # a loop over output TIMES, as every stepper's time loop
+        state = stepper.step(system, t[k], state, h)
+        xs.append(state[0])
+        vs.append(state[1])
+    x, v = np.array(xs), np.array(vs)
+    return t, x, v, system.accel(0.0, x, v)
+
+
+def hermite_quintic(t, grid):
+    """x, v at times t from the grid's (x, v, a) at the bracketing points (flat states)."""
+    tg, xg, vg, ag = grid
+    t = np.clip(np.asarray(t, float), tg[0], tg[-1])
+    i = np.clip(np.searchsorted(tg, t, side="right") - 1, 0, len(tg) - 2)
+    h = (tg[i + 1] - tg[i])[:, None]
+    s = ((t - tg[i])[:, None]) / h
+    s2, s3, s4, s5 = s * s, s ** 3, s ** 4, s ** 5
+    basis = [1 - 10 * s3 + 15 * s4 - 6 * s5, s - 6 * s3 + 8 * s4 - 3 * s5,
+             0.5 * (s2 - 3 * s3 + 3 * s4 - s5), 10 * s3 - 15 * s4 + 6 * s5,
+             -4 * s3 + 7 * s4 - 3 * s5, 0.5 * (s3 - 2 * s4 + s5)]
+    slope = [-30 * s2 + 60 * s3 - 30 * s4, 1 - 18 * s2 + 32 * s3 - 15 * s4,
+             s - 4.5 * s2 + 6 * s3 - 2.5 * s4, 30 * s2 - 60 * s3 + 30 * s4,
+             -12 * s2 + 28 * s3 - 15 * s4, 1.5 * s2 - 4 * s3 + 2.5 * s4]
+    ends = (xg[i], h * vg[i], h * h * ag[i], xg[i + 1], h * vg[i + 1], h * h * ag[i + 1])
+    x = sum(b * e for b, e in zip(basis, ends))
+    v = sum(b * e for b, e in zip(slope, ends)) / h
+    return x, v
+
+
+def fastest_rate(periods: float) -> float:
+    """Largest local frequency on the orbit (rad/s): sqrt of the spectral radius of da/dx over
+    the reference grid (the linearised motion's fastest oscillation)."""
+    _, x, _, _ = reference_grid(periods)
+    jac = pair_jacobian(x.reshape(len(x), 3, 3), MASSES)
+    return float(np.sqrt(np.max(np.abs(np.linalg.eigvals(jac)))))
+
+
+class FigureEight(Case):
+    name = "figure_eight"
+    description = ("Chenciner-Montgomery figure-eight three-body choreography: converged "
+                   "in-house reference, return to the start after each period")
+    tags = ("particle_fields", "gravity", "orbit", "converged")
+    observable, units = "x", "m"
+    params = {"periods": Param(1.0, 0.0, 1e3, "run length in periods", low_inclusive=False)}
+    variants = {"one_period": {}, "hundred_periods": {"periods": 100.0}}
+    quick_variants = ("one_period",)
+    default_variants = ("one_period",)
+    samples = 128
+
+    def scene(self, p):
+        x, v = initial_state()
+        return Scene(bodies=Particles(mass=MASSES, position=x, velocity=v),
+                     extra=(GravityPairs(G=1.0, softening=0.0),))
+
+    def bodies(self, p):
+        return 3
+
+    def t_end(self, p):
+        return p["periods"] * PERIOD
+
+    def dts(self, p):
+        return [PERIOD / k for k in STEPS_PER_PERIOD]
+
+    def reference_dt(self, p):
+        return PERIOD / STEPS_PER_PERIOD[-1]
+
+    def motion_scale(self, p):
+        return float(np.linalg.norm(initial_state()[0]))
+
+    def error_floor(self, p):
+        return max(REFERENCE_ERROR, self._roundoff(p, min(self.dts(p)))[0])
+
+    def observables(self, p, obs):
+        return {"x": np.asarray(obs["x"], float), "v": np.asarray(obs["v"], float)}
+
+    def reference(self, p, t):
+        x, v = hermite_quintic(t, reference_grid(p["periods"]))
+        return {"x": x.reshape(-1, 3, 3), "v": v.reshape(-1, 3, 3)}
+
+    def energy(self, p, obs):
+        return invariants_of(obs, MASSES, 1.0)["energy"]
+
+    def energy_scale(self, p):
+        x, v = initial_state()
+        return abs(float(invariants_of({"x": x[None], "v": v[None]}, MASSES, 1.0)["energy"][0]))
+
+    def extra_metrics(self, p, obs, observed, reference):
+        inv = invariants_of(obs, MASSES, 1.0)
+        x, v, t = observed["x"], observed["v"], np.asarray(obs["t"], float)
+        periods = t[-1] / PERIOD
+        whole = abs(periods - round(periods)) < 1e-9 * max(1.0, periods)
+        lever = float(np.sum(np.linalg.norm(x[0], axis=-1) * np.linalg.norm(v[0], axis=-1)))
+        drift = np.abs(inv["energy"] - inv["energy"][0])
+        half = len(drift) // 2
+        return {"return_error": float(np.linalg.norm(x[-1] - x[0])) if whole else np.nan,
+                "momentum_drift": vector_drift(inv["momentum"],
+                                               float(np.sum(np.linalg.norm(v[0], axis=-1)))),
+                "angular_momentum_drift": vector_drift(inv["angular_momentum"], lever),
+                "energy_growth": float(np.max(drift[half:]) / max(np.max(drift[:half + 1]),
+                                                                  1e-300))}
+
+    def _roundoff(self, p, dt):
+        """S = 2 |x0| (positions and velocities of comparable size, rounded once each); the
+        phase error a rounding starts grows as 1 + 1.5 w t (T ~ |E|^-1.5 for a potential
+        homogeneous of degree -1, as for Kepler)."""
+        steps = int(round(self.t_end(p) / dt))
+        bound, reason = roundoff_tolerance(steps, 2.0 * self.motion_scale(p))
+        growth = 1.0 + 1.5 * fastest_rate(p["periods"]) * self.t_end(p)
+        return bound * growth, f"{reason}, times 1 + 1.5 w t = {growth:.3g}"
+
+    def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        scale, rate, t_end = self.motion_scale(p), fastest_rate(p["periods"]), self.t_end(p)
+        roundoff, roundoff_reason = self._roundoff(p, dt)
+        floor = f"; plus the reference's own error {REFERENCE_ERROR:g} m"
+        rtol = adaptive_rtol(integrator)
+        if rtol is not None:
+            return 10 * rtol * scale * rate * t_end + roundoff + REFERENCE_ERROR, (
+                ADAPTIVE_REASON + f" (omega = the fastest local rate {rate:.3g} rad/s)"
+                + roundoff_reason + floor)
+        tol, reason = orbit_tolerance(scale, rate, t_end, dt, order, is_symplectic(settings))
+        reason = reason.replace("periapsis angular rate", "fastest local rate sqrt(|da/dx|)")
+        return tol + roundoff + REFERENCE_ERROR, reason + roundoff_reason + floor
+
+
+CASE = FigureEight()

@@ -1,0 +1,97 @@
+"""The figure-eight case: return after one period, its reference, bounded vs secular energy."""
+import numpy as np
+
+from cases.particle_fields.figure_eight import (
+    CASE,
+    MASSES,
+    PERIOD,
+    REFERENCE_ERROR,
+    RETURN_FLOOR,
+    hermite_quintic,
+    initial_state,
+    reference_grid,
+)
+from refsim.integrators import AdaptiveDormandPrince
+from refsim.models.nbody_gravity import GravitySystem, total_momentum
+from refsim.registry import get_engine
+
+
+def run(p, integrator, dt, every):
+    sim = get_engine("refsim").build(CASE.scene(p), dt, integrator)
+    obs = [sim.observe()]
+    for _ in range(int(round(CASE.t_end(p) / dt)) // every):
+        sim.step(every)
+        obs.append(sim.observe())
+    assert sim.failure is None
+    return {k: np.array([o[k] for o in obs]) for k in ("t", "x", "v")}
+
+
+def test_initial_conditions_are_the_choreography():
+    x, v = initial_state()
+    np.testing.assert_array_equal(x[0], -x[1])
+    np.testing.assert_array_equal(v[0], v[1])
+    np.testing.assert_array_equal(total_momentum(v, MASSES), 0.0)  # -v3/2 twice plus v3
+    assert np.all(x[:, 2] == 0) and np.all(v[:, 2] == 0)
+
+
+def test_tight_run_returns_to_the_start_within_the_floor():
+    """The floor is the 8-digit ICs' own: a tight run (rtol 1e-13) returns to 5.03e-8 m, far
+    above its integration error (1.5e-11 m against rtol 1e-12), and below RETURN_FLOOR."""
+    x0, v0 = initial_state()
+    system = GravitySystem(MASSES)
+    stepper = AdaptiveDormandPrince(rtol=1e-13, atol=1e-16)
+    state = stepper.start(system, 0.0, x0.reshape(-1), v0.reshape(-1), PERIOD)
+    state = stepper.step(system, 0.0, state, PERIOD)
+    gap = np.linalg.norm(state[0] - x0.reshape(-1))
+    assert 1e3 * REFERENCE_ERROR < gap <= RETURN_FLOOR
+
+
+def test_reference_grid_and_interpolant():
+    grid = reference_grid(1.0)
+    t = grid[0]
+    x, v = hermite_quintic(t, grid)  # at the nodes the interpolant is the node itself
+    np.testing.assert_allclose(x, grid[1], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(v, grid[2], rtol=0, atol=1e-14)
+    mid = 0.5 * (t[:-1] + t[1:])
+    xm, _ = hermite_quintic(mid[::17], grid)
+    stepper = AdaptiveDormandPrince(rtol=1e-12, atol=1e-15)
+    system = GravitySystem(MASSES)
+    for k, i in enumerate(range(0, len(mid), 17)):
+        state = stepper.start(system, t[i], grid[1][i], grid[2][i], mid[i] - t[i])
+        state = stepper.step(system, t[i], state, mid[i] - t[i])
+        assert np.linalg.norm(xm[k] - state[0]) <= REFERENCE_ERROR
+
+
+def test_rk4_converges_to_the_reference_at_fourth_order():
+    p = CASE.variant_params("one_period")
+    errs = []
+    for k in (200, 400):
+        obs = run(p, "rk4", PERIOD / k, every=k // 50)
+        errs.append(np.max(CASE.error(p, CASE.observables(p, obs), CASE.reference(p, obs["t"]))))
+    assert 3.7 <= np.log2(errs[0] / errs[1]) <= 4.3, errs  # 4 within its pre-asymptotic terms
+
+
+def test_energy_bounded_for_verlet_and_secular_for_rk4():
+    """20 periods (the hundred_periods variant's behaviour, cheaper): the energy_growth metric
+    (second half's max |E - E0| over the first half's) is about 1 for Verlet (a modified
+    Hamiltonian is conserved) and about 2 for RK4 (linear drift)."""
+    p = CASE.variant_params("one_period", {"periods": 20})
+    growth = {}
+    for integrator in ("velocity_verlet", "rk4"):
+        obs = run(p, integrator, PERIOD / 100, every=20)
+        growth[integrator] = CASE.extra_metrics(p, obs, CASE.observables(p, obs), {})[
+            "energy_growth"]
+    assert growth["velocity_verlet"] <= 1.2
+    assert growth["rk4"] >= 1.6
+
+
+def test_return_error_metric_after_one_period():
+    p = CASE.variant_params("one_period")
+    obs = run(p, "rk4", PERIOD / 500, every=10)
+    observed = CASE.observables(p, obs)
+    metrics = CASE.extra_metrics(p, obs, observed, {})
+    final = CASE.error(p, observed, CASE.reference(p, obs["t"]))[-1]
+    # triangle inequality: |x(T) - x0| <= |x(T) - ref(T)| + |ref(T) - x0|, the last term the
+    # converged solution's own return, below RETURN_FLOOR
+    assert metrics["return_error"] <= final + RETURN_FLOOR
+    assert metrics["momentum_drift"] <= 1e-13
