@@ -21,8 +21,7 @@ from refsim.models.system import ParticleSystem
 from refsim.scene.emitter import FREE_SLOT_VALUE, emitter_of
 
 INTEGRATORS = ("explicit_euler", "symplectic_euler", "symplectic_euler_dk", "midpoint", "heun",
-               "rk2", "rk4", "dopri5", "stormer_verlet", "velocity_verlet", "leapfrog",
-               "implicit_euler")
+               "rk2", "rk4", "dopri5", "stormer_verlet", "velocity_verlet", "leapfrog")
 PRINTED = ("as printed (slide 002): k = per_step particles generated every step (rate k/h), "
            "`velocity == g*dt` a comparison: no acceleration, straight lines; lifetime removal "
            "added (the slide removes nothing)")
