@@ -53,12 +53,24 @@ def emitted_count(emitter, h, n, formulation="corrected"):
     """Particles born by boundary n (array or scalar n >= 0): ids i with i / rate <= n h
     (corrected) or i // k <= n (as printed)."""
     _check_formulation(formulation)
+    if np.ndim(n) == 0:  # one boundary (the engine's step loop): plain Python arithmetic
+        return _emitted_scalar(emitter, h, int(n), formulation)
     n = np.asarray(n, dtype=np.int64)
     if formulation == "as_printed":
         return emitter.per_step * (n + 1)
     count = np.floor(n * h * emitter.rate).astype(np.int64) + 1
     count = np.where(count / emitter.rate <= n * h, count + 1, count)  # the float test decides
     return np.where((count - 1) / emitter.rate > n * h, count - 1, count)
+
+
+def _emitted_scalar(emitter, h, n, formulation):
+    """emitted_count for one boundary, the same float tests."""
+    if formulation == "as_printed":
+        return emitter.per_step * (n + 1)
+    count = math.floor(n * h * emitter.rate) + 1
+    if count / emitter.rate <= n * h:
+        count += 1
+    return count - 1 if (count - 1) / emitter.rate > n * h else count
 
 
 def birth_steps(emitter, h, ids, formulation="corrected"):

@@ -88,14 +88,14 @@ def test_as_printed_flies_straight_and_over_counts():
     # the straight line misses the parabola by g a^2 / 2 at age a: the oldest, a = L h - h
     age = (em.life_steps(EMITTER.emitter(p), dt) - 1) * dt
     assert observed["position_error"].max() == pytest.approx(0.5 * p["g"] * age ** 2, rel=1e-9)
-    # k / (rate h) = 1 / (50 x 0.01) = 2 times as many emitted
-    # 201 born in 201 boundaries (k = 1 at each of t = 0 .. 2 s) against rate T + 1 = 101
-    assert obs["emitted"][-1] == 201
+    # k = 1 at each of the T / h + 1 boundaries: k / (rate h) = 2 times rate T + 1
+    steps = round(p["duration"] / dt)
+    assert obs["emitted"][-1] == steps + 1 and p["rate"] * p["duration"] == steps / 2
 
 
 def test_emitter_settings_state_the_capacity_and_formulation():
     p = EMITTER.variant_params("default")
     sim = ENGINE.build(EMITTER.scene(p), 0.01, "rk4", "as_printed")
     s = sim.settings()
-    assert s["capacity"] == 100 and "velocity == g*dt" in s["formulation"]
+    assert s["capacity"] == 50 and "velocity == g*dt" in s["formulation"]
     assert ENGINE.formulations(EMITTER.scene(p)) == ("corrected", "as_printed")
