@@ -6,18 +6,13 @@ import pytest
 from cases.particle_fields.advection_vortex import AXIS, CASE, CENTRE
 from refsim.engine import Engine
 from refsim.integrators.first_order import get_first_order
+from refsim import registry
 from refsim.job import Job, run_job
 from refsim.models.advection import vortex_radius_factor
-from refsim import registry
 
 FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    registry.register("case", CASE.name, "cases.particle_fields.advection_vortex:CASE")
-    yield
-    registry.unregister("case", CASE.name)
 
 
 @pytest.mark.parametrize("integrator", FIELD_STEPPERS)

@@ -4,18 +4,12 @@ import numpy as np
 import pytest
 
 from cases.particle_fields.gradient_descent import CASE
-from refsim import registry
 from refsim.integrators.first_order import get_first_order
 from refsim.job import Job, run_job
 
 FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    registry.register("case", CASE.name, "cases.particle_fields.gradient_descent:CASE")
-    yield
-    registry.unregister("case", CASE.name)
 
 
 def test_euler_contraction_is_one_minus_h_lambda():

@@ -3,15 +3,9 @@ falls monotonically."""
 import pytest
 
 from cases.particle_fields.sphere_sampling import CASE
-from refsim import registry
 from refsim.job import Job, run_job
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    registry.register("case", CASE.name, "cases.particle_fields.sphere_sampling:CASE")
-    yield
-    registry.unregister("case", CASE.name)
 
 
 @pytest.mark.parametrize("variant", list(CASE.variants))
