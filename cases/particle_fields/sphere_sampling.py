@@ -45,6 +45,7 @@ class SphereSamplingCase(Case):
     }
     variants = {"tetrahedron": {}, "octahedron": {"particles": "6"},
                 "icosahedron": {"particles": "12", "sigma": 0.5}}
+    quick_variants = ("tetrahedron",)
     default_variants = ("tetrahedron", "octahedron")
 
     def count(self, p) -> int:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cases.particle_fields.boids import CASE as BOIDS
-from cases.particle_fields.emitter import CASE as EMITTER
+from cases.particle_fields.sprinkler import CASE as EMITTER
 from refsim.models import emitter as em
 from refsim.registry import get_engine
 

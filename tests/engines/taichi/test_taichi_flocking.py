@@ -1,6 +1,6 @@
 """taichi refuses the flocking and emitter scenes with its reason (kernels not written yet)."""
 from cases.particle_fields.boids import CASE as BOIDS
-from cases.particle_fields.emitter import CASE as EMITTER
+from cases.particle_fields.sprinkler import CASE as EMITTER
 from refsim.registry import get_engine
 
 

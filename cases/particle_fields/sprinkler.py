@@ -1,4 +1,4 @@
-"""Ballistic emitter: particles born at a steady rate, each on its closed-form parabola.
+"""The sprinkler (slide 002), a ballistic emitter: particles born at a steady rate, each on its closed-form parabola.
 
 Scene: `Scene(extra=(Emitter(...),), gravity=(0, 0, -g))`, rate `rate` particles/s, lifetime
 `lifetime` s, spawn velocity (0, 0, speed) + spread x uniform[-1, 1)^3 (seeded, the part's
@@ -30,8 +30,8 @@ from refsim.scene.emitter import Emitter
 FIRST_ORDER = em.OLD_VELOCITY_DRIFT | em.NEW_VELOCITY_DRIFT
 
 
-class EmitterCase(Case):
-    name = "emitter"
+class SprinklerCase(Case):
+    name = "sprinkler"
     description = ("particle emitter under gravity: every particle on its exact parabola, "
                    "counts = rate x time; the slide's sprinkler as printed flies straight")
     tags = ("particle_fields", "emitter", "exact")
@@ -130,4 +130,4 @@ class EmitterCase(Case):
                           "g (k h)^2 / 2)" + roundoff_reason)
 
 
-CASE = EmitterCase()
+CASE = SprinklerCase()

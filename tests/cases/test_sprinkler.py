@@ -1,7 +1,7 @@
 """Emitter case: its reference counts and the tolerances it derives."""
 import numpy as np
 
-from cases.particle_fields.emitter import CASE
+from cases.particle_fields.sprinkler import CASE
 from refsim.models import emitter as em
 
 
