@@ -7,7 +7,7 @@ rho = 0.7 sigma^-2 and temperature T = 1.0 eps/k (a dense supercritical fluid: t
 critical point is near T = 0.5, rho = 0.35; liquid-like packing, about 6 neighbours in the
 first shell), cut-off 2.5 sigma, potential shifted to 0 there, square periodic box of side
 sqrt(N / rho) (>= 2 r_c for N >= 18). Start: the first N sites of a square lattice filling the
-box (spacing >= 1.07 sigma at rho = 0.7 > r_c... of the repulsive core), velocities drawn from
+box (spacing 1.18 sigma at N = 1000, rho = 0.7: clear of the repulsive core), velocities drawn from
 the Maxwell-Boltzmann distribution (seeded), the mean removed (zero total momentum) and scaled
 so that the kinetic energy is (N - 1) T exactly (2 (N - 1) degrees of freedom, T/2 each).
 
