@@ -10,8 +10,8 @@ Exact period at amplitude A (energy conservation, mu r'^2 / 2 + U(r) = E = U(r0 
 evaluated with scipy.integrate.quad after r = c - h cos(theta) (c, h the midpoint and half
 width of [r_min, r_max]), which removes the inverse square-root endpoint singularities
 (dr = h sin(theta) dtheta and E - U ~ theta^2 at both ends); E - U is factored through
-r - r_end, so it is free of cancellation near the turning points (`exact_period`). T(A) -> 2 pi / w0 as A -> 0; the
-anharmonic shift grows like A^2 (`period_shift`).
+r - r_end, so it is free of cancellation near the turning points (`exact_period`).
+T(A) -> 2 pi / w0 as A -> 0; the anharmonic shift grows like A^2 (`period_shift`).
 Reference trajectory: r(t) from a converged run, scipy's DOP853 on mu r'' = -U'(r) with
 rtol 1e-13 (its error, < 1e-11 sigma over these horizons, checked in the tests against the
 quadrature period), not an inversion of t(r).

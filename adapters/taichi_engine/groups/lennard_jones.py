@@ -52,7 +52,8 @@ class LennardJonesSim(KernelSim):
         box = list(part.box) + [1.0] * (3 - len(part.box)) if part.box else [1.0, 1.0, 1.0]
         finite = math.isfinite(part.cutoff)  # the shift moves U only, not the force
         return dict(eps=part.epsilon, sigma=part.sigma,
-                    cutoff=part.cutoff if finite else 1e308, all_pairs=int(not finite), periodic=int(part.box is not None),
+                    cutoff=part.cutoff if finite else 1e308, all_pairs=int(not finite),
+                    periodic=int(part.box is not None),
                     dim=self.scene.dim, box=vec3(*box))
 
     def _arrays(self, n) -> dict:
