@@ -22,7 +22,8 @@ ORDER_MEANINGFUL = {"free_fall": True, "stiff_spring": True, "pendulum": True,
                     "spin_drift": True, "heavy_top": True, "compound_pendulum": True,
                     "rolling_disc": True, "kepler": True, "figure_eight": True,
                     "advection_vortex": True, "gradient_descent": True,
-                    "sphere_sampling": False, "boids": True, "sprinkler": False}
+                    "sphere_sampling": False, "boids": True, "sprinkler": False,
+                    "lj_dimer": True, "lj_gas": True}
 # formulations that run a slide's formula as printed where it is wrong (the harness must fail
 # them): the collision seed's impulse, the sprinkler's `velocity == g*dt`
 AS_PRINTED = {"hard_sphere_seed", "as_printed"}
