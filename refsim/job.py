@@ -179,6 +179,7 @@ def _accuracy_pass(case, p, sim, steps, stride, clock):
     `Sim.step` calls only."""
     obs = [clock.call(sim.observe)]
     e_scale = case.energy_scale(p)
+    e0 = _energy_at(case, p, obs[0])  # once: every later observation is compared with it
     done, stepping = 0, 0.0
     while done < steps:
         n = min(stride, steps - done)
@@ -188,7 +189,7 @@ def _accuracy_pass(case, p, sim, steps, stride, clock):
         done += n
         o = clock.call(sim.observe)
         obs.append(o)
-        why = _divergence(case, p, sim, o, obs[0], e_scale)
+        why = _divergence(case, p, sim, o, e0, e_scale)
         if why:
             clock.total += stepping
             return obs, (f"{why} at t={o['t']:.6g} s", o["t"]), stepping
@@ -215,16 +216,23 @@ def series(case, p, stacked) -> dict:
     return out
 
 
-def _divergence(case, p, sim, o, first, e_scale):
+def _energy_at(case, p, o):
+    """The case's energy of one observation (None when the case defines none)."""
+    energy = case.energy(p, {k: np.asarray([o[k]]) for k in o})
+    return None if energy is None else energy[0]
+
+
+def _divergence(case, p, sim, o, e0, e_scale):
+    """Why the run is diverging at observation `o` (None while it is not): the engine's own
+    failure, a non-finite state, or the energy past `divergence_factor` energy scales from
+    its initial value e0."""
     if sim.failure:
         return sim.failure
     if not (np.all(np.isfinite(o["x"])) and np.all(np.isfinite(o["v"]))):
         return "non-finite state"
-    stacked = {k: np.asarray([o[k]]) for k in o}
-    energy = case.energy(p, stacked)
-    if energy is not None:
-        e0 = case.energy(p, {k: np.asarray([first[k]]) for k in first})[0]
-        if abs(energy[0] - e0) > case.divergence_factor * e_scale:
+    if e0 is not None:
+        energy = _energy_at(case, p, o)
+        if abs(energy - e0) > case.divergence_factor * e_scale:
             return f"energy beyond {case.divergence_factor:g} x the energy scale"
     return None
 
