@@ -165,12 +165,12 @@ class FigureEight(Case):
 
     def _roundoff(self, p, dt):
         """S = 2 |x0| (positions and velocities of comparable size, rounded once each); the
-        phase error a rounding starts grows as 1 + 1.5 w t (T ~ |E|^-1.5 for a potential
+        phase error a rounding starts grows as 1 + 1.5 n t (n = 2 pi / T; T ~ |E|^-1.5 for a potential
         homogeneous of degree -1, as for Kepler)."""
         steps = int(round(self.t_end(p) / dt))
         bound, reason = roundoff_tolerance(steps, 2.0 * self.motion_scale(p))
-        growth = 1.0 + 1.5 * fastest_rate(p["periods"]) * self.t_end(p)
-        return bound * growth, f"{reason}, times 1 + 1.5 w t = {growth:.3g}"
+        growth = 1.0 + 1.5 * 2.0 * np.pi / PERIOD * self.t_end(p)
+        return bound * growth, f"{reason}, times 1 + 1.5 n t = {growth:.3g} (n = 2 pi / T)"
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         scale, rate, t_end = self.motion_scale(p), fastest_rate(p["periods"]), self.t_end(p)
@@ -181,7 +181,8 @@ class FigureEight(Case):
             return 10 * rtol * scale * rate * t_end + roundoff + REFERENCE_ERROR, (
                 ADAPTIVE_REASON + f" (omega = the fastest local rate {rate:.3g} rad/s)"
                 + roundoff_reason + floor)
-        tol, reason = orbit_tolerance(scale, rate, t_end, dt, order, is_symplectic(settings))
+        tol, reason = orbit_tolerance(scale, rate, t_end, dt, order, is_symplectic(settings),
+                                      2.0 * np.pi / PERIOD)
         reason = reason.replace("periapsis angular rate", "fastest local rate sqrt(|da/dx|)")
         return tol + roundoff + REFERENCE_ERROR, reason + roundoff_reason + floor
 

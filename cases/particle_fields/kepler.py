@@ -134,11 +134,11 @@ class Kepler(Case):
     def _roundoff(self, p, dt):
         """S = 2 (1 + e) a: rounding both bodies' positions and velocities (|v| t-scaled by the
         periapsis rate) once; the phase error a rounding starts grows as 1 + 1.5 w t (the
-        energy-period coupling, see orbit_tolerance)."""
+        energy-period coupling at the mean motion n = 2 pi / T, see orbit_tolerance)."""
         steps = int(round(self.t_end(p) / dt))
         bound, reason = roundoff_tolerance(steps, 2.0 * self.motion_scale(p))
-        growth = 1.0 + 1.5 * periapsis_rate(p) * self.t_end(p)
-        return bound * growth, f"{reason}, times 1 + 1.5 w t = {growth:.3g}"
+        growth = 1.0 + 1.5 * 2.0 * np.pi / period(p) * self.t_end(p)
+        return bound * growth, f"{reason}, times 1 + 1.5 n t = {growth:.3g}"
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         scale, rate, t_end = self.motion_scale(p), periapsis_rate(p), self.t_end(p)
@@ -147,7 +147,8 @@ class Kepler(Case):
         if rtol is not None:
             return 10 * rtol * scale * rate * t_end + roundoff, ADAPTIVE_REASON + \
                 f" (omega = the periapsis rate {rate:.3g} rad/s)" + roundoff_reason
-        tol, reason = orbit_tolerance(scale, rate, t_end, dt, order, is_symplectic(settings))
+        tol, reason = orbit_tolerance(scale, rate, t_end, dt, order, is_symplectic(settings),
+                                      2.0 * np.pi / period(p))
         return tol + roundoff, reason + roundoff_reason
 
 

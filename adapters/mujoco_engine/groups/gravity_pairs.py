@@ -81,6 +81,11 @@ def effective_method(integrator: str, variant: str):
         return replace(method, order=1, note=(
             "RK4's 4 stages with xfrc_applied held at the step-start force: v += h a(x_k), "
             "x += h v_k + h^2/2 a(x_k): first order (measured 1.0), not symplectic"))
+    if integrator in ("implicit", "implicitfast"):
+        return replace(method, symplectic=True, note=(
+            f"{method.note}. Here no force depends on velocity (no damping, no Coriolis term "
+            "on free point masses): D = 0, and the step IS the symplectic (semi-implicit) "
+            "Euler step, equal to MuJoCo's Euler to round-off (tested): declared symplectic"))
     return method
 
 
