@@ -10,18 +10,19 @@ of `refsim.integrators.first_order` with the projection where refsim applies it.
 
 The same operations in the same order as refsim's numpy (the coefficients a_sj h and b_s h are
 formed as refsim forms them, the tableau's zero entries skipped as refsim skips them): the two
-differ only in the order of the pair sums and the last bit of exp and sqrt.
+differ only in the order of the pair sums and the last bit of exp.
 
-One kernel per stepper (the tableau is unrolled with ti.static), whatever N (the arrays'
-lengths are runtime shapes). The time loop is the kernel's outermost loop, serialized (each
-stage needs every particle's positions), so the loops over particles and pairs inside it run
-serially on one thread (ENGINE_NOTES: only a kernel's outermost loop runs in parallel).
+ONE kernel for every stepper and every N: the tableau is a runtime array argument and the
+stage count and N are runtime shapes, so it compiles once per process (four kernels unrolled
+per stepper cost 0.2-0.45 s of JIT each). The time loop is the kernel's outermost loop,
+serialized (each stage needs every particle's positions), so the loops over particles and
+pairs inside it run serially on one thread (ENGINE_NOTES: only a kernel's outermost loop runs in parallel).
 `velocities` alone, for checks and benchmarks, runs its loop over particles in parallel.
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """
 import numpy as np
 
-from .kernel_types import f64, nd_vec3, ti, vec3
+from .kernel_types import f64, nd_f64, nd_vec3, ti, vec3
 
 nd2_vec3 = ti.types.ndarray(dtype=vec3, ndim=2)
 sampling_t = ti.types.argpack(centre=vec3, radius=f64, alpha=f64, decay=f64, scale=f64)
@@ -36,14 +37,10 @@ def sampling_pack(radius, centre, sigma, alpha):
                       scale=-2.0 / sigma ** 2)
 
 
-def tableau_terms(tableau):
-    """(couplings, weights) of an explicit tableau, refsim's way: for each later stage s the
-    (j, a_sj) with a_sj != 0, and the (s, b_s) with b_s != 0."""
+def tableau_array(tableau) -> np.ndarray:
+    """An explicit tableau as the kernel's runtime argument: [a (s x s, row-major), b (s)]."""
     a, b, _ = tableau.arrays()
-    couplings = tuple(tuple((j, float(a[s, j])) for j in range(s) if a[s, j] != 0)
-                      for s in range(1, len(b)))
-    weights = tuple((s, float(b[s])) for s in range(len(b)) if b[s] != 0)
-    return couplings, weights
+    return np.concatenate([a.ravel(), b])
 
 
 @ti.func
@@ -69,35 +66,41 @@ def projected(P: ti.template(), q):
                                           rel[2] * rel[2])) * rel
 
 
-def sampling_kernel(tableau):
-    """The kernel advancing every particle n steps of h (projected after each step) with the
-    explicit tableau. Arguments: p (n), stage (n) and slopes (stages, n) scratch, the pack,
-    h, n."""
-    couplings, weights = tableau_terms(tableau)
-    stages = len(couplings) + 1
+@ti.func
+def stage_positions(p: ti.template(), stage: ti.template(), slopes: ti.template(),
+                    tab: ti.template(), s, h):
+    """stage = p + sum_j (a_sj h) k_j over the j < s with a_sj != 0, in j order (as refsim)."""
+    stages = slopes.shape[0]
+    for i in range(p.shape[0]):
+        q = p[i]
+        for j in range(s):
+            a_sj = tab[s * stages + j]
+            if a_sj != 0.0:
+                q = q + (a_sj * h) * slopes[j, i]
+        stage[i] = q
 
-    @ti.kernel
-    def advance(p: nd_vec3, stage: nd_vec3, slopes: nd2_vec3, P: sampling_t, h: f64,
-                n: ti.i32):
-        ti.loop_config(serialize=True)  # the time loop is the outermost loop: keep it serial
-        for _ in range(n):
+
+@ti.kernel
+def advance(p: nd_vec3, stage: nd_vec3, slopes: nd2_vec3, tab: nd_f64, P: sampling_t, h: f64,
+            n: ti.i32):
+    """n steps of h of every particle, projected after each, with the explicit tableau `tab`
+    (`tableau_array`; its stage count is slopes.shape[0]): one kernel for every stepper."""
+    stages = slopes.shape[0]
+    ti.loop_config(serialize=True)  # the time loop is the outermost loop: keep it serial
+    for _ in range(n):
+        for i in range(p.shape[0]):
+            slopes[0, i] = velocity_of(P, p, i)
+        for s in range(1, stages):
+            stage_positions(p, stage, slopes, tab, s, h)
             for i in range(p.shape[0]):
-                slopes[0, i] = velocity_of(P, p, i)
-            for s in ti.static(range(1, stages)):
-                for i in range(p.shape[0]):
-                    q = p[i]
-                    for m in ti.static(range(len(couplings[s - 1]))):
-                        q = q + (ti.static(couplings[s - 1][m][1]) * h) * \
-                            slopes[ti.static(couplings[s - 1][m][0]), i]
-                    stage[i] = q
-                for i in range(p.shape[0]):
-                    slopes[s, i] = velocity_of(P, stage, i)
-            for i in range(p.shape[0]):
-                q = p[i]
-                for m in ti.static(range(len(weights))):
-                    q = q + (ti.static(weights[m][1]) * h) * slopes[ti.static(weights[m][0]), i]
-                p[i] = projected(P, q)
-    return advance, stages
+                slopes[s, i] = velocity_of(P, stage, i)
+        for i in range(p.shape[0]):
+            q = p[i]
+            for s in range(stages):
+                b_s = tab[stages * stages + s]
+                if b_s != 0.0:
+                    q = q + (b_s * h) * slopes[s, i]
+            p[i] = projected(P, q)
 
 
 @ti.kernel

@@ -26,8 +26,8 @@ from refsim.scene.velocity_field import velocity_field_of
 
 from ..sim import I32_MAX
 
-SAMPLING_NATIVE = ("kernel: the tableau's stages over all particles (all-pairs u into a "
-                   "scratch slope array per stage), p + sum b_s h k_s, then projection")
+SAMPLING_NATIVE = ("kernel: the tableau (a runtime array) stage by stage over all particles "
+                   "(all-pairs u into a slope array per stage), p + sum b_s h k_s, projection")
 
 
 def claims(scene) -> bool:
@@ -103,20 +103,20 @@ class SphereSamplingSim(Sim):
         self.stepper = get_first_order(integrator)
         self.system, self.model = make_system(scene), model_text(scene)
         self.threads, self.config = THREADS, effective_config()
-        key = ("surface_sampling", integrator)
-        self.cold = key not in rt["kernels"]
-        if self.cold:
-            rt["kernels"][key] = sk.sampling_kernel(self.stepper.tableau)
-        self.advance, stages = rt["kernels"][key]
+        self.cold = "surface_sampling" not in rt["compiled"]
+        self.advance = sk.advance
         start = self.system.project(np.array(scene.particles.position, float))  # as refsim
         self.p = to_ndarray(start)
-        slopes = rt["ti"].ndarray(sk.vec3, shape=(stages, len(start)))
+        tableau = sk.tableau_array(self.stepper.tableau)
+        slopes = rt["ti"].ndarray(sk.vec3, shape=(len(self.stepper.tableau.b), len(start)))
         pack = sk.sampling_pack(part.radius, part.centre, part.sigma, part.alpha)
-        self.args = (self.p, to_ndarray(np.zeros_like(start)), slopes, pack)
+        self.args = (self.p, to_ndarray(np.zeros_like(start)), slopes, to_ndarray(tableau),
+                     pack)
         t0 = time.perf_counter()
         self.advance(*self.args, self.dt, 0)  # compiles on first use
         rt["ti"].sync()
         self.compile_s = time.perf_counter() - t0
+        rt["compiled"].add("surface_sampling")
 
     def _step_impl(self, n):
         done = 0
@@ -142,6 +142,8 @@ class SphereSamplingSim(Sim):
                 "pairs": "all pairs (no cut-off), j = i included (its term is 0), as refsim",
                 "time_loop": "inside one kernel per Sim.step(n), ti.loop_config(serialize="
                              "True): each stage's loops over particles and pairs serial",
+                "kernel_args": "ndarrays + argpack, the tableau an ndarray, n a runtime i32 "
+                               "(one kernel for every stepper and N: no recompilation)",
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)"}
 

@@ -76,7 +76,7 @@ def test_taichi_equals_refsim_to_roundoff(variant, integrator):
     the polyhedron: the sum stays ~steps x 2, not exp(L t))."""
     p = CASE.variant_params(variant)
     stepper, h = get_first_order(integrator), CASE.dts(p)[0]
-    steps = int(round(CASE.t_end(p) / h))
+    steps = round(CASE.t_end(p) / h)
     engine = get_engine("taichi")
     lockstep = engine.build(CASE.scene(p), h, integrator)
     final, one_step, gain = refsim_run_with_tangents(p, stepper, h, steps, lockstep)
