@@ -122,3 +122,20 @@ def test_refusals_and_settings():
     in_house = get_engine("refsim").build(scene, 0.05, "heun").observe()
     for name in observed:  # the same start, the same numpy model: bit for bit at t = 0
         assert np.array_equal(observed[name], in_house[name])
+
+
+@pytest.mark.parametrize("variant", list(CASE.variants))
+def test_velocity_kernel_matches_the_model(variant):
+    """u at the random start (the whole sphere, every pair distance): the pair sum's order
+    and exp's last bit only, (n + 4) eps G (`step_difference_bound`'s slope term)."""
+    from adapters.taichi_engine import sampling_kernels as sk
+    from adapters.taichi_engine.kernel_store import to_ndarray
+    p = CASE.variant_params(variant)
+    system, n = CASE.system(p), CASE.count(p)
+    start = system.project(CASE.start(p))
+    positions, velocities = to_ndarray(start), to_ndarray(np.zeros_like(start))
+    sk.velocities(positions, velocities, sk.sampling_pack(1.0, (0.0, 0.0, 0.0), p["sigma"],
+                                                          p["alpha"]))
+    pair_sum = (2.0 * p["alpha"] / p["sigma"]) * (n - 1) * np.exp(-0.5)
+    assert np.max(np.abs(velocities.to_numpy() - system.velocity(0.0, start))) <= \
+        (n + 4) * EPS * pair_sum
