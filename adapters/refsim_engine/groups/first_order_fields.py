@@ -33,6 +33,9 @@ def first_order_reason(integrator: str, offered) -> str | None:
     name = (integrator or "").partition(":")[0]
     if integrator is None or integrator in offered:
         return None
+    if name in FIELD_INTEGRATORS:  # a first-order stepper not offered for this field
+        return (f"{integrator!r} solves affine fields only (one linear solve a step): this "
+                f"field is not affine in p; offered here: {list(offered)}")
     if name in SECOND_ORDER_ONLY or name in INTEGRATORS:
         return (f"first-order system p' = u(p): {integrator!r} steps second-order systems "
                 f"and needs x'' = a; offered here: {list(offered)}")

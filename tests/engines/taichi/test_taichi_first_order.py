@@ -40,7 +40,8 @@ def test_taichi_matches_the_exact_discrete_solution_and_refsim(case, integrator)
 def test_taichi_refusals_and_settings():
     engine = registry.get_engine("taichi")
     sampling = SAMPLING.scene(SAMPLING.variant_params("tetrahedron"))
-    assert "surface sampling" in engine.supports(sampling, "explicit_euler")
+    assert engine.supports(sampling, "explicit_euler") is None
+    assert "not affine" in engine.supports(sampling, "implicit_euler")
     scene = VORTEX.scene(VORTEX.variant_params("default", {"particles": 3}))
     assert "needs x'' = a" in engine.supports(scene, "symplectic_euler")
     sim = engine.build(scene, 0.1, "rk4")
