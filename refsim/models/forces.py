@@ -43,11 +43,20 @@ class SpringSet:
     def __post_init__(self):
         has_other = self.other >= 0
         ends = np.concatenate([self.body, self.other[has_other]])
-        object.__setattr__(self, "has_other", has_other)
-        object.__setattr__(self, "any_other", bool(has_other.any()))
-        object.__setattr__(self, "unique_ends", len(np.unique(ends)) == len(ends))
+        fixed = {"has_other": has_other, "any_other": bool(has_other.any()),
+                 "unique_ends": len(np.unique(ends)) == len(ends),
+                 # per-call constants of forces(), shaped once (each saves a numpy call there)
+                 "k_column": self.stiffness[:, None], "rest_column": self.rest[:, None],
+                 "c_column": self.damping[:, None], "damped": bool(self.damping.any()),
+                 # every body i on its own spring i to an anchor: forces are the spring forces
+                 "one_per_body": bool(not has_other.any()
+                                      and np.array_equal(self.body, np.arange(len(self.body))))}
+        for name, value in fixed.items():
+            object.__setattr__(self, name, value)
 
     def _ends(self, x, v):
+        if self.one_per_body and x.shape[-2] == len(self.body):  # x[..., body, :] is x itself
+            return x - self.anchor, v
         if not self.any_other:  # every spring to a fixed anchor
             return x[..., self.body, :] - self.anchor, v[..., self.body, :]
         has_other, safe = self.has_other[:, None], np.maximum(self.other, 0)
@@ -56,17 +65,20 @@ class SpringSet:
         return x[..., self.body, :] - other_x, v[..., self.body, :] - other_v
 
     def _axis(self, d):
+        """(|d|, d / |d|), the unit vector 0 where |d| = 0 (d / inf = 0: one division, the same
+        quotients as dividing where |d| > 0)."""
         length = np.sqrt(np.einsum("...i,...i->...", d, d))[..., None]
-        unit = np.divide(d, length, out=np.zeros_like(d), where=length > 0)
-        return length, unit
+        return length, d / np.where(length > 0, length, np.inf)
 
     def forces(self, x, v) -> np.ndarray:
         """Force on every body: -k (|d| - L0) u - c (dv . u) u, equal and opposite on `other`."""
         d, dv = self._ends(x, v)
         length, unit = self._axis(d)
-        f = -(self.stiffness[:, None] * (length - self.rest[:, None])) * unit
-        if self.damping.any():
-            f = f - self.damping[:, None] * np.einsum("...i,...i->...", dv, unit)[..., None] * unit
+        f = -(self.k_column * (length - self.rest_column)) * unit
+        if self.damped:
+            f = f - self.c_column * np.einsum("...i,...i->...", dv, unit)[..., None] * unit
+        if self.one_per_body and f.shape == x.shape:  # f is a fresh array: it is the forces
+            return f
         out = np.zeros_like(x)
         if self.unique_ends:  # no body shared by two spring ends: plain indexed writes
             out[..., self.body, :] = f

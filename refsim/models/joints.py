@@ -85,6 +85,12 @@ class RodSet:
     length: np.ndarray
     baumgarte: float  # w (1/s)
 
+    def __post_init__(self):
+        # rod i on body i, one rod per body: x[..., body, :] is x itself (no gather, no copy)
+        object.__setattr__(self, "one_per_body",
+                           bool(np.array_equal(self.body, np.arange(len(self.body)))))
+        object.__setattr__(self, "length_squared", self.length ** 2)
+
     def constraint(self, x):
         """Rod-length error |x_b - anchor| - L, per rod (..., nrod)."""
         return np.linalg.norm(x[..., self.body, :] - self.anchor, axis=-1) - self.length
@@ -97,13 +103,16 @@ class RodSet:
         complement J M^-1 J^T is diagonal (|r|^2 / m): eliminating a gives
         lam = (r.f/m - rhs) / (|r|^2/m) and a = (f - lam r) / m, the KKT solution exactly.
         """
-        r = x[..., self.body, :] - self.anchor
-        vb = v[..., self.body, :]
-        m = masses[self.body]
+        whole = self.one_per_body and x.shape[-2] == len(self.body)
+        r = (x if whole else x[..., self.body, :]) - self.anchor
+        vb = v if whole else v[..., self.body, :]
+        m = masses if whole else masses[self.body]
         rr = _dot(r, r)
         w = self.baumgarte
-        rhs = -_dot(vb, vb) - 2.0 * w * _dot(r, vb) - (0.5 * w * w) * (rr - self.length ** 2)
-        lam = (_dot(r, f[..., self.body, :]) / m - rhs) / (rr / m)
+        rhs = -_dot(vb, vb) - 2.0 * w * _dot(r, vb) - (0.5 * w * w) * (rr - self.length_squared)
+        lam = (_dot(r, f if whole else f[..., self.body, :]) / m - rhs) / (rr / m)
+        if whole:  # the same arithmetic as the indexed update below, without the copy
+            return (f - lam[..., None] * r) / masses[:, None]
         force = f.copy()
         force[..., self.body, :] -= lam[..., None] * r
         return force / masses[:, None]
