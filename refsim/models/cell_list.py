@@ -142,60 +142,75 @@ def pair_search(x, radius, box=None) -> PairSearch:
 
 
 class _SortedGrid:
-    """Particles sorted by cell (positions as d contiguous component arrays), for the half
-    shell passes: each pass pairs every particle p with the particles q of ONE cell, the one
-    at `offset` from p's own (in its own cell only q > p), all particles at once."""
+    """Particles sorted by cell (cell coordinates and positions as contiguous per-axis arrays),
+    for the half shell passes: each pass pairs every particle p with the particles q of ONE
+    cell, the one at `offset` from p's own (in its own cell only q > p), all particles at once."""
 
     def __init__(self, coords, instance, cell, components, cells, strides, counts, starts,
                  box):
-        self.coords, self.instance, self.cell = coords, instance, cell
-        self.components, self.cells, self.strides = components, cells, strides
+        self.axes = tuple(np.ascontiguousarray(coords.T))  # d arrays (n,): cell coordinates
+        self.cell, self.components = cell, components
+        self.cells, self.strides = cells, strides
         self.counts, self.starts = counts, starts
         self.box = None if box is None else np.asarray(box, float)
         self.index = np.arange(len(cell))
 
     def _partners(self, offset):
-        """(first q, count, image shift (d, n) or None) of each particle's partner run."""
+        """(first q (n,), count (n,), wraps): each particle's partner run, and per wrapped
+        axis (k, the particles whose neighbour cell lies across the periodic boundary, the
+        image shift offset_k L_k)."""
         if not offset.any():  # own cell: q from p + 1 to the cell's end
-            return self.index + 1, self.starts[self.cell] + self.counts[self.cell] - \
-                self.index - 1, None
-        other = self.coords + offset
-        shift = None
-        if self.box is not None:
-            wrap = np.floor_divide(other, self.cells)  # -1, 0, +1: the neighbour's image
-            other -= wrap * self.cells
-            shift = (wrap * self.box).T if wrap.any() else None
-            cell = other @ self.strides + self.instance
-            return self.starts[cell], self.counts[cell], shift
-        valid = np.all((other >= 0) & (other < self.cells), axis=1)
-        cell = np.where(valid, other @ self.strides + self.instance, 0)
-        return self.starts[cell], np.where(valid, self.counts[cell], 0), None
+            end = self.starts[self.cell] + self.counts[self.cell]
+            return self.index + 1, end - self.index - 1, []
+        cell = self.cell + int(offset @ self.strides)
+        valid, wraps = None, []
+        for k in np.flatnonzero(offset):  # the axes this offset moves along (1 to 3)
+            step = int(offset[k])
+            moved = self.axes[k] + step
+            across = moved >= self.cells[k] if step > 0 else moved < 0
+            if self.box is None:
+                valid = ~across if valid is None else valid & ~across
+                continue
+            wrapped = np.flatnonzero(across)  # the neighbour is cell 0 or cells - 1: its image
+            cell[wrapped] -= step * int(self.cells[k] * self.strides[k])
+            wraps.append((k, wrapped, step * float(self.box[k])))
+        if valid is None:
+            return self.starts[cell], self.counts[cell], wraps
+        cell = np.where(valid, cell, 0)
+        return self.starts[cell], np.where(valid, self.counts[cell], 0), wraps
 
     def pass_at(self, offset, radius):
         """(p, q, sep components) of the pairs within the radius at this offset. The
         separation is (x_q - x_p) + wrap L: the minimum image within the radius (>= 3 cells
         per periodic axis), bit for bit what x_q - x_p - L round((x_q - x_p) / L) gives."""
-        first, count, shift = self._partners(offset)
-        total = int(count.sum())
+        first, count, wraps = self._partners(offset)
+        run_start = np.cumsum(count) - count  # where each particle's candidates begin
         p = np.repeat(self.index, count)
-        q = np.repeat(first - (np.cumsum(count) - count), count) + np.arange(total)
-        seps = []
-        for k, comp in enumerate(self.components):  # the 2 or 3 axes
-            sep = comp[q] - np.repeat(comp, count)
-            if shift is not None:
-                sep += np.repeat(shift[k], count)
-            seps.append(sep)
-        r2 = squared_norm(seps)
-        close = np.flatnonzero(r2 < radius * radius)
+        q = _runs(first, count, run_start)
+        seps = [comp[q] - comp[p] for comp in self.components]  # the 2 or 3 axes
+        for k, wrapped, shift in wraps:
+            seps[k][_runs(run_start[wrapped], count[wrapped])] += shift
+        close = np.flatnonzero(squared_norm(seps) < radius * radius)
         return p[close], q[close], [sep[close] for sep in seps]
+
+
+def _runs(first, count, run_start=None):
+    """The concatenated ranges first[k], ..., first[k] + count[k] - 1 (no loop)."""
+    if run_start is None:
+        run_start = np.cumsum(count) - count
+    return np.repeat(first - run_start, count) + np.arange(int(run_start[-1] + count[-1])
+                                                            if len(count) else 0)
 
 
 def squared_norm(components):
     """|sep|^2 with numpy's einsum rounding: d_x^2 + d_y^2, (d_x^2 + d_z^2) + d_y^2."""
-    squares = [c * c for c in components]
-    if len(squares) == 2:
-        return squares[0] + squares[1]
-    return (squares[0] + squares[2]) + squares[1]
+    out = components[0] * components[0]
+    last = components[-1] * components[-1]
+    out += last  # x + y in 2D, x + z in 3D
+    if len(components) == 3:
+        np.multiply(components[1], components[1], out=last)
+        out += last
+    return out
 
 
 def _pairs_at_offset(offset, coords, instance, pos, cells, strides, counts, starts,
