@@ -57,7 +57,8 @@ def all_pairs_rows(n_values=(1000, 10000), quick=False) -> list[dict]:
     rows = []
     for n in n_values:
         x, masses = _cloud(int(n))
-        s_np, a_np = _best(lambda: pair_accelerations(x, masses, 1.0, SOFTENING), repeats)
+        s_np, a_np = _best(lambda x=x, m=masses: pair_accelerations(x, m, 1.0, SOFTENING),
+                           repeats)
         rows.append(_row("numpy", n, s_np, 0.0))
         try:
             call = _taichi_accel(x, masses)

@@ -6,7 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from refsim.models.lennard_jones import LennardJonesModel, LennardJonesSystem, pair_potential
+from refsim.models.lennard_jones import (
+    LennardJonesModel,
+    LennardJonesSystem,
+    pair_potential,
+)
 from refsim.scene.lennard_jones import LennardJones
 
 EPS = np.finfo(float).eps
