@@ -1,6 +1,13 @@
 """All-pairs gravity throughput: refsim's numpy `pair_accelerations` against taichi's float64
 kernel (`adapters.taichi_engine.gravity_kernels.accelerations`), one acceleration evaluation of
-n random bodies. `all_pairs_rows` is called by the particle_fields bench (not registered here).
+n random bodies (softening 0.01). `all_pairs_rows` is called by the particle_fields bench (not
+registered here).
+
+Pair interactions per evaluation: n (n - 1), the ordered pairs (i, j) both engines evaluate
+(each body sums its n - 1 partners). Time: the best of `repeats` evaluations after a warm-up
+(taichi: compilation; numpy: its work arrays). numpy runs on one thread (its blocked path makes
+no BLAS call); taichi's outer loop over bodies runs on `cpu_max_num_threads` threads
+(adapters/taichi_engine/runtime.py THREADS: 1 unless REFSIM_TAICHI_THREADS says otherwise).
 """
 from __future__ import annotations
 
@@ -10,7 +17,6 @@ import numpy as np
 
 from refsim.models.nbody_gravity import pair_accelerations
 
-BLOCK_ROWS = 1000  # numpy rows per block: a (1000, n, 3) temporary, 240 MB at n = 10^4
 SOFTENING = 0.01
 
 
@@ -45,25 +51,26 @@ def _taichi_accel(x, masses):
 
 
 def all_pairs_rows(n_values=(1000, 10000), quick=False) -> list[dict]:
-    """One row per engine and n: best of a few evaluations after a warm-up."""
+    """One row per engine ("numpy", "taichi") and n: best of a few evaluations after a
+    warm-up; taichi rows only where taichi imports."""
     repeats = 1 if quick else 3
     rows = []
     for n in n_values:
         x, masses = _cloud(int(n))
-        block = BLOCK_ROWS if n > BLOCK_ROWS else None
-        s_np, a_np = _best(lambda: pair_accelerations(x, masses, 1.0, SOFTENING, block), repeats)
-        rows.append(_row("refsim (numpy)", n, s_np, 0.0))
+        s_np, a_np = _best(lambda x=x, m=masses: pair_accelerations(x, m, 1.0, SOFTENING),
+                           repeats)
+        rows.append(_row("numpy", n, s_np, 0.0))
         try:
             call = _taichi_accel(x, masses)
         except ImportError:
             continue
         s_ti, a_ti = _best(call, repeats)
         diff = float(np.max(np.abs(a_ti.to_numpy() - a_np)))
-        rows.append(_row("taichi (cpu, f64)", n, s_ti, diff))
+        rows.append(_row("taichi", n, s_ti, diff))
     return rows
 
 
 def _row(engine, n, seconds, diff):
     return {"model": "gravity, all pairs", "engine": engine, "n": int(n),
-            "seconds_per_eval": seconds, "pair_interactions_per_s": n * (n - 1) / seconds,
-            "max_abs_diff_vs_numpy": diff}
+            "pairs": int(n) * (int(n) - 1), "seconds_per_eval": seconds,
+            "pair_interactions_per_s": n * (n - 1) / seconds, "max_abs_diff_vs_numpy": diff}

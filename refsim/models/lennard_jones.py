@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from .cell_list import neighbour_pairs
+from .cell_list import neighbour_pairs, pair_search, squared_norm
 
 
 def pair_potential(r, epsilon=1.0, sigma=1.0, cutoff=math.inf, shift=False):
@@ -70,19 +70,31 @@ class LennardJonesModel:
         return neighbour_pairs(x, self.cutoff, self.box)
 
     def forces(self, x):
-        """Forces (..., n, d) on each particle (N)."""
+        """Forces (..., n, d) on each particle (N): g sep on j, its opposite on i, for each
+        pair i < j (in the cell list's order, so the sums round as they always have), summed
+        in the cell list's sorted numbering, then unsorted."""
         x = np.asarray(x, float)
         if self.dense:
             return self._dense_forces(x)
-        i, j, sep = self.pairs(x)
-        _, g = _pair_terms(sep, self.epsilon, self.sigma, self.cutoff, self.shift)
-        pair_force = g[:, None] * sep  # on j; its opposite on i
+        found = pair_search(x, self.cutoff, self.box)
+        g = self._g(squared_norm(found.sep))
+        swap = found.order[found.first] > found.order[found.second]  # first is j: sep = -sep
+        i, j = np.where(swap, found.second, found.first), np.where(swap, found.first,
+                                                                    found.second)
+        g[swap] *= -1.0  # g (-sep) = -(g sep) exactly
         rows = int(np.prod(x.shape[:-1]))
         out = np.empty((rows, x.shape[-1]))
-        for k in range(x.shape[-1]):  # a loop over the 2 or 3 axes
-            out[:, k] = (np.bincount(j, pair_force[:, k], minlength=rows)
-                         - np.bincount(i, pair_force[:, k], minlength=rows))
+        for k, sep in enumerate(found.sep):  # a loop over the 2 or 3 axes
+            pair_force = g * sep  # on j; its opposite on i
+            out[found.order, k] = (np.bincount(j, pair_force, minlength=rows)
+                                   - np.bincount(i, pair_force, minlength=rows))
         return out.reshape(x.shape)
+
+    def _g(self, r2):
+        """g = -U'(r)/r = 24 eps (2 (s/r)^12 - (s/r)^6) / r^2 of squared distances."""
+        s2 = self.sigma * self.sigma / r2
+        s6 = s2 * s2 * s2
+        return 24.0 * self.epsilon * (2.0 * s6 * s6 - s6) / r2
 
     def energy(self, x):
         """Potential energy (J) per instance, shape x.shape[:-2]."""

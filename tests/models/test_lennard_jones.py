@@ -6,7 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from refsim.models.lennard_jones import LennardJonesModel, LennardJonesSystem, pair_potential
+from refsim.models.lennard_jones import (
+    LennardJonesModel,
+    LennardJonesSystem,
+    pair_potential,
+)
 from refsim.scene.lennard_jones import LennardJones
 
 EPS = np.finfo(float).eps
@@ -87,3 +91,24 @@ def test_system_moves_a_2d_scene_in_its_plane():
 def test_part_refuses_bad_fields(fields, match):
     with pytest.raises(ValueError, match=f"lennard_jones.{match}"):
         LennardJones(**fields)
+
+
+@pytest.mark.parametrize("dim, box", [(2, None), (3, None), (2, (7.0, 7.5)),
+                                      (3, (6.0, 6.0, 6.5)), (2, (4.9, 7.5))])
+def test_forces_are_the_pair_list_sum_bit_for_bit(dim, box):
+    """forces() sums in the cell list's sorted numbering; it must round exactly as the sum
+    over neighbour_pairs (i < j, force g sep on j and -g sep on i, in pair order). The box
+    (4.9, 7.5) has a periodic axis of one cell: the full-shell passes."""
+    x = _cloud(60, dim, 6.0, 11)[None].repeat(2, axis=0)
+    x[1] += 0.013
+    model = LennardJonesModel(1.1, 1.0, 2.45, True, box)
+    i, j, sep = model.pairs(x)
+    r2 = np.einsum("ij,ij->i", sep, sep)
+    s2 = 1.0 / r2  # sigma = 1
+    s6 = s2 * s2 * s2
+    g = 24.0 * 1.1 * (2.0 * s6 * s6 - s6) / r2
+    rows = 2 * 60
+    want = np.stack([np.bincount(j, g * sep[:, k], minlength=rows)
+                     - np.bincount(i, g * sep[:, k], minlength=rows) for k in range(dim)], -1)
+    assert len(i) > 100
+    np.testing.assert_array_equal(model.forces(x), want.reshape(x.shape))
