@@ -62,8 +62,8 @@ def advance_emitter(x: nd_vec3, v: nd_vec3, P: ballistic_t, h: f64, n: ti.i32,
         e = first[i]
         for s in range(n):
             xi, vi = one_step(P, xi, vi, h, method)
-            if e < first[i + 1]:
-                if when[e] == s + 1:
+            if e < first[i + 1]:  # noqa: SIM102 (taichi's `and` does not short-circuit:
+                if when[e] == s + 1:  # when[e] must not be read past the slot's events)
                     xi, vi = x0[e], v0[e]
                     e += 1
         x[i], v[i] = xi, vi

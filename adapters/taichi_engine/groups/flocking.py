@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.engine import ModelGroup
+from refsim.integrators import get_integrator
 from refsim.scene.flocking import flocking_of
 
 from ..sim import KernelSim
@@ -60,7 +61,6 @@ class FlockKernelSim(KernelSim):
         from .. import flocking_kernels as fk
         from ..kernel_store import to_ndarray
         from ..runtime import runtime
-        from refsim.integrators import get_integrator
         rt = runtime()
         method, (a_next, b, stages) = method_of(get_integrator(integrator))
         made = rt["kernels"]

@@ -6,9 +6,9 @@ import pytest
 
 pytest.importorskip("taichi")
 
-from cases.particle_fields.sprinkler import CASE as EMITTER  # noqa: E402
-from refsim.models import emitter as em  # noqa: E402
-from refsim.registry import get_engine  # noqa: E402
+from cases.particle_fields.sprinkler import CASE as EMITTER
+from refsim.models import emitter as em
+from refsim.registry import get_engine
 
 STEPPERS = ("symplectic_euler", "velocity_verlet", "rk4", "explicit_euler", "midpoint")
 CHUNKS = (1, 2, 3, 7, 10, 13, 1, 40)  # Sim.step(n) lengths: births mid-launch and at its end

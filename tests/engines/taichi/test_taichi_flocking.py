@@ -5,8 +5,8 @@ import pytest
 
 pytest.importorskip("taichi")
 
-from cases.particle_fields.boids import CASE as BOIDS  # noqa: E402
-from refsim.registry import get_engine  # noqa: E402
+from cases.particle_fields.boids import CASE as BOIDS
+from refsim.registry import get_engine
 
 EPS = np.finfo(float).eps
 STEPPERS = ("symplectic_euler", "velocity_verlet", "rk4", "explicit_euler", "midpoint")
@@ -18,7 +18,7 @@ def _run(engine, p, integrator, dt):
     """Observations every 10 steps over the case's run."""
     sim = get_engine(engine).build(BOIDS.scene(p), dt, integrator)
     out = [sim.observe()]
-    for _ in range(int(round(BOIDS.t_end(p) / dt / 10))):
+    for _ in range(round(BOIDS.t_end(p) / dt / 10)):
         sim.step(10)
         out.append(sim.observe())
     settings = sim.settings()
@@ -44,7 +44,7 @@ def test_taichi_equals_refsim_over_the_default_run(integrator, dt):
     ref, _ = _run("refsim", p, integrator, dt)
     assert np.array_equal(tai["t"], ref["t"])
     n, psi, speed, state = _scales(p)
-    steps = int(round(BOIDS.t_end(p) / dt))
+    steps = round(BOIDS.t_end(p) / dt)
     # the two sum the pair terms in another order (refsim: psi @ v - (sum_j psi) v, taichi:
     # sum_j psi (v_j - v_i)): each a_i differs by <= 2 x N eps x 2 psi_max V (N terms of
     # size <= 2 psi_max V, over N), so a step's kicks (b-weights summing to 1) differ by
@@ -77,7 +77,7 @@ def test_cucker_smale_mean_velocity_kept_to_round_off(integrator):
     dt = BOIDS.dts(p)[-1]
     obs, _ = _run("taichi", p, integrator, dt)
     mean = obs["v"].mean(axis=1)
-    steps = int(round(BOIDS.t_end(p) / dt))
+    steps = round(BOIDS.t_end(p) / dt)
     assert np.max(np.abs(mean - mean[0])) <= _mean_velocity_roundoff(p, integrator, dt, steps)
     var = BOIDS.observables(p, obs)["velocity_variance"]
     assert var[-1] < 0.5 * var[0]  # the flock aligns: the variance decays (Ha & Liu bound)
