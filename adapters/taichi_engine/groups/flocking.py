@@ -99,6 +99,8 @@ class FlockKernelSim(KernelSim):
                 **effective_config(), "rule": f.rule, **rule,
                 "pairs": "all pairs, a serial loop over j per bird (no cut-off search)",
                 "time_loop": "time loop inside one kernel, ti.loop_config(serialize=True)",
+                "arrays": "x, v: numpy arrays handed to the kernel (external arrays, read "
+                          "and written in place); stage arrays: taichi ndarrays",
                 "kernel": "one kernel for every stepper and rule (runtime codes, tableau "
                           "coefficients as arrays): compiled once per process",
                 "compile": "cold JIT in this build" if self.cold else
