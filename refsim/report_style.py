@@ -139,15 +139,19 @@ def grid_figure(count: int):
 
 def _plain_log_labels(axis) -> None:
     """'1e-08' tick labels on a log axis: the default 10^k labels go through mathtext, which
-    took a fifth of the report's rendering time."""
-    from matplotlib.ticker import LogFormatter, NullFormatter
+    took a fifth of the report's rendering time. No minor ticks (2..9 x 10^k): unlabelled,
+    ungridded, they were 19,500 tick objects and a third of the remaining drawing time of the
+    22-case report."""
+    from matplotlib.ticker import LogFormatter, NullLocator
     if axis.get_scale() == "log":
         axis.set_major_formatter(LogFormatter(labelOnlyBase=True))
-        axis.set_minor_formatter(NullFormatter())
+        axis.set_minor_locator(NullLocator())
 
 
 def finish_axes(ax, title: str, legend: bool = True) -> None:
-    ax.set_title(title, fontsize=8.5)
+    # y given: no automatic title position (matplotlib measured every tick label of the axes
+    # to place it, a third of the drawing time; the x tick labels are below, nothing is above)
+    ax.set_title(title, fontsize=8.5, y=1.0, pad=4.0)
     ax.grid(True, which="major", alpha=0.25)
     ax.tick_params(labelsize=7)
     _plain_log_labels(ax.xaxis)
