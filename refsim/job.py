@@ -173,26 +173,42 @@ def _nominal_order(sim, job):
         return float("nan")
 
 
+ENERGY_BATCH = 16  # observations whose energies the divergence check evaluates together
+
+
 def _accuracy_pass(case, p, sim, steps, stride, clock):
     """Observe at t = 0 and every `stride` steps; stop at the first sign of divergence.
     Returns the observations, the divergence (reason, t) or None, and the time spent inside
-    `Sim.step` calls only."""
+    `Sim.step` calls only.
+
+    The engine's failure and a non-finite state are checked at every observation; the energy
+    criterion for ENERGY_BATCH observations at once (one vectorised `case.energy` call, not
+    one per observation: a fifth of a short row's time). The verdict is the same as checking
+    each observation in turn: the first observation that fails any criterion ends the
+    observations and names the reason; only the engine may have stepped up to ENERGY_BATCH - 1
+    observations past it."""
     obs = [clock.call(sim.observe)]
     e_scale = case.energy_scale(p)
     e0 = _energy_at(case, p, obs[0])  # once: every later observation is compared with it
-    done, stepping = 0, 0.0
+    done, stepping, pending = 0, 0.0, 1  # obs[pending:]: energies not yet checked
     while done < steps:
         n = min(stride, steps - done)
         t0 = time.perf_counter()
         sim.step(n)
         stepping += time.perf_counter() - t0
         done += n
-        o = clock.call(sim.observe)
-        obs.append(o)
-        why = _divergence(case, p, sim, o, e0, e_scale)
+        obs.append(clock.call(sim.observe))
+        why = _state_failure(sim, obs[-1])
+        last = len(obs) - (1 if why else 0)  # a failed observation's energy is not asked
+        if e0 is not None and (why or done >= steps or last - pending >= ENERGY_BATCH):
+            k = _first_energy_divergence(case, p, obs, pending, last, e0, e_scale)
+            pending = last
+            if k is not None:
+                del obs[k + 1:]
+                why = f"energy beyond {case.divergence_factor:g} x the energy scale"
         if why:
             clock.total += stepping
-            return obs, (f"{why} at t={o['t']:.6g} s", o["t"]), stepping
+            return obs, (f"{why} at t={obs[-1]['t']:.6g} s", obs[-1]["t"]), stepping
     clock.total += stepping
     return obs, None, stepping
 
@@ -222,19 +238,26 @@ def _energy_at(case, p, o):
     return None if energy is None else energy[0]
 
 
-def _divergence(case, p, sim, o, e0, e_scale):
-    """Why the run is diverging at observation `o` (None while it is not): the engine's own
-    failure, a non-finite state, or the energy past `divergence_factor` energy scales from
-    its initial value e0."""
+def _state_failure(sim, o):
+    """The engine's own failure, or a non-finite state at observation `o`; None when neither."""
     if sim.failure:
         return sim.failure
-    if not (np.all(np.isfinite(o["x"])) and np.all(np.isfinite(o["v"]))):
+    if not (np.isfinite(o["x"]).all() and np.isfinite(o["v"]).all()):
         return "non-finite state"
-    if e0 is not None:
-        energy = _energy_at(case, p, o)
-        if abs(energy - e0) > case.divergence_factor * e_scale:
-            return f"energy beyond {case.divergence_factor:g} x the energy scale"
     return None
+
+
+def _first_energy_divergence(case, p, obs, start, stop, e0, e_scale):
+    """Index of the first of obs[start:stop] whose energy is past `divergence_factor` energy
+    scales from e0, or None."""
+    if stop <= start:
+        return None
+    batch = obs[start:stop]
+    with np.errstate(all="ignore"):  # a diverging state may overflow: it is judged, not run
+        energy = np.asarray(case.energy(p, {k: np.asarray([o[k] for o in batch])
+                                            for k in batch[0]}), float)
+        beyond = np.flatnonzero(np.abs(energy - e0) > case.divergence_factor * e_scale)
+    return None if len(beyond) == 0 else start + int(beyond[0])
 
 
 def _accuracy_metrics(case, p, stacked):
