@@ -51,7 +51,9 @@ class ParticleSystem:
         f = self.forces(xb, vb)
         if self.rods is not None:
             total = self.weight if f is None else f + self.weight
-            a = self.rods.project(xb, vb, np.broadcast_to(total, shape), self.masses)
+            if total.shape != shape:  # a batch: the weight broadcast over it
+                total = np.broadcast_to(total, shape)
+            a = self.rods.project(xb, vb, total, self.masses)
         elif f is None:
             a = np.broadcast_to(self.g_accel, shape)
         else:
