@@ -44,6 +44,8 @@ REFERENCE_RTOL = 1e-12
 REFERENCE_ERROR = 5e-11  # m: bound on the reference's error (measured 3.2e-11: docstring)
 RETURN_FLOOR = 1e-7  # m: |x(T) - x(0)| of the converged solution (measured 5.03e-8, times 2)
 STEPS_PER_PERIOD = (50, 158, 500)  # the timed dt sweep (a decade), as steps per period
+ORDER_STEPS_PER_PERIOD = (1580,)  # untimed, for the order fit: with 158 and 500 a decade
+# above the coarsest (T/50, where most methods are unresolved and the fit starts pre-asymptotic)
 
 
 def initial_state():
@@ -124,6 +126,9 @@ class FigureEight(Case):
 
     def dts(self, p):
         return [PERIOD / k for k in STEPS_PER_PERIOD]
+
+    def order_dts(self, p):
+        return [PERIOD / k for k in ORDER_STEPS_PER_PERIOD]
 
     def reference_dt(self, p):
         return PERIOD / STEPS_PER_PERIOD[-1]

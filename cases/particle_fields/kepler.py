@@ -37,7 +37,8 @@ from ._orbits import (
 
 G, SEMI_MAJOR, TOTAL_MASS = 1.0, 1.0, 1.0
 STEPS_PER_PERIOD = (40, 126, 400)  # the timed dt sweep (a decade of dt), as steps per period
-ORDER_STEPS_PER_PERIOD = ()  # none: the timed sweep spans a decade (the budget of the default run)
+ORDER_STEPS_PER_PERIOD = (1260,)  # untimed, for the order fit: with 126 and 400 a decade
+# above the coarsest (T/40, where most methods are unresolved and the fit starts pre-asymptotic)
 
 
 def masses(p) -> np.ndarray:

@@ -30,6 +30,9 @@ def test_the_inhouse_engine_meets_the_contract_on_every_case(name, variant, form
     p = case.variant_params(variant)
     scene = case.scene(p)
     integrator = "velocity_verlet" if scene.fluid is not None else "symplectic_euler"
+    if ENGINE.supports(scene, integrator) is not None:  # a first-order scene: its own steppers
+        integrator = next(i for i in ENGINE.offered_integrators(scene)
+                          if ENGINE.supports(scene, i) is None)
     sim = ENGINE.build(scene, case.reference_dt(p), integrator, formulation)
     assert check_observation(sim.observe(), scene) == []
     sim.step(1)
