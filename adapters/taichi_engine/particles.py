@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..common.hinges import HingeFrames
-from .kernel_store import to_ndarray
+from .kernel_store import observed, to_ndarray
 from .sim import KernelSim
 
 
@@ -45,7 +45,7 @@ class ParticleSim(KernelSim):
         super().__init__(dt, integrator, variant, (self.x, self.v, accel, particle_pack(scene)))
 
     def _observe(self):
-        return {"x": self.x.to_numpy().reshape(-1, 3), "v": self.v.to_numpy().reshape(-1, 3)}
+        return {"x": observed(self.x), "v": observed(self.v)}
 
     def settings(self):
         return {**self.base_settings(), "formulation": "cartesian point masses",
@@ -76,7 +76,7 @@ class HingeSim(KernelSim):
         super().__init__(dt, integrator, variant, (*nd[:3], pack))
 
     def _observe(self):
-        x, v = self.frames.cartesian(self.x.to_numpy(), self.v.to_numpy(),
+        x, v = self.frames.cartesian(observed(self.x), observed(self.v),
                                      self.scene.positions, self.scene.velocities)
         return {"x": x, "v": v, "constraint": np.zeros(len(self.frames.bodies))}
 

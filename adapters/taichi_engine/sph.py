@@ -14,7 +14,7 @@ import numpy as np
 
 from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                   plane_gravity, wall_particles)
-from .kernel_store import to_ndarray
+from .kernel_store import observed, to_ndarray
 from .runtime import THREADS, runtime
 from .sim import KernelSim
 
@@ -23,7 +23,7 @@ SPH_STATS = ("steps_without_grid", "steps")  # the kernels' counters, in `stats`
 
 
 class FluidSim(KernelSim):
-    """Fluid particles then wall particles in one (x, v) pair of vec2 ndarrays; density,
+    """Fluid particles then wall particles in one (x, v) pair of (n, 2) numpy arrays; density,
     pressure, rates, the grid and counters in the `sph_t` argpack."""
 
     system = "sph"
@@ -77,7 +77,7 @@ class FluidSim(KernelSim):
         self.compile_s += time.perf_counter() - t0
         self.cold = self.cold or key not in rt["compiled"]
         rt["compiled"].add(key)
-        self.nd["stats"].from_numpy(np.zeros(len(SPH_STATS), np.int64))
+        self.nd["stats"][:] = 0
         self.advance = advance_sph_parallel
 
     def _thread_settings(self, base) -> dict:
@@ -107,12 +107,12 @@ class FluidSim(KernelSim):
             self.failure = f"non-finite particle positions by t={self.time_after(n):.6g}"
 
     def sph_stats(self) -> dict:
-        return dict(zip(SPH_STATS, (int(c) for c in self.nd["stats"].to_numpy())))
+        return dict(zip(SPH_STATS, (int(c) for c in self.nd["stats"])))
 
     def _observe(self):
         n = self.n_fluid
-        return {"x": self.x.to_numpy()[:n].copy(), "v": self.v.to_numpy()[:n].copy(),
-                "rho": self.nd["rho"].to_numpy()[:n].copy(), "mass": np.full(n, self.mass)}
+        return {"x": observed(self.x[:n]), "v": observed(self.v[:n]),
+                "rho": observed(self.nd["rho"][:n]), "mass": np.full(n, self.mass)}
 
     def settings(self):
         f = self.fluid

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .particles import force_stages, particle_pack
-from .kernel_store import to_ndarray
+from .kernel_store import observed, to_ndarray
 from .sim import KernelSim
 
 MAX_PASSES = 100  # Gauss-Seidel impulse passes per step, at most
@@ -78,14 +78,13 @@ class SphereSim(KernelSim):
 
     def contact_stats(self) -> dict:
         """Counters since build (see STATS) and the deepest overlap met before projection."""
-        out = dict(zip(STATS, (int(c) for c in self.nd["stats"].to_numpy())))
-        out["depth_max"] = float(self.nd["depth_max"].to_numpy()[0])
+        out = dict(zip(STATS, (int(c) for c in self.nd["stats"])))
+        out["depth_max"] = float(self.nd["depth_max"][0])
         return out
 
     def _observe(self):
-        return {"x": self.x.to_numpy().reshape(-1, 3), "v": self.v.to_numpy().reshape(-1, 3),
-                "w": self.w.to_numpy().reshape(-1, 3),
-                "wall_impulse": self.nd["wall_impulse"].to_numpy().reshape(3)}
+        return {"x": observed(self.x), "v": observed(self.v), "w": observed(self.w),
+                "wall_impulse": observed(self.nd["wall_impulse"]).reshape(3)}
 
     def settings(self):
         contact = self.scene.contact

@@ -25,6 +25,7 @@ from refsim.integrators import get_integrator
 from refsim.models import emitter as em
 from refsim.scene.emitter import FREE_SLOT_VALUE, emitter_of
 
+from ..kernel_store import STATE_ARRAYS, observed, to_ndarray
 from .flocking import chain_tableau
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4", "explicit_euler", "midpoint")
@@ -42,7 +43,6 @@ def method_of(stepper):
 class EmitterKernelSim(Sim):
     def __init__(self, scene, dt, integrator, formulation):
         from .. import emitter_kernels as ek
-        from ..kernel_store import to_ndarray
         from ..runtime import runtime
         rt = runtime()
         self.dt, self.integrator, self.formulation = float(dt), integrator, formulation
@@ -98,7 +98,7 @@ class EmitterKernelSim(Sim):
 
     def _observe(self):
         free = self.ids < 0
-        x, v = self.x.copy(), self.v.copy()
+        x, v = observed(self.x), observed(self.v)
         x[free], v[free] = FREE_SLOT_VALUE, FREE_SLOT_VALUE
         births = em.birth_steps(self.emitter, self.dt, np.maximum(self.ids, 0), self.formulation)
         return {"id": self.ids.copy(), "x": x, "v": v,
@@ -123,8 +123,7 @@ class EmitterKernelSim(Sim):
                                    "slot ids",
                 "time_loop": "one launch per Sim.step(n); slots outermost in the kernel, each "
                              "slot's steps serial",
-                "arrays": "numpy arrays handed to the kernel (external arrays, read and "
-                          "written in place)",
+                "arrays": STATE_ARRAYS,
                 "kernel": "one kernel for every stepper (runtime code, tableau as arrays)",
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)",

@@ -16,6 +16,7 @@ from refsim.engine import ModelGroup
 from refsim.models.nbody_gravity import GravitySystem
 from refsim.scene.gravity_pairs import gravity_pairs_of
 
+from ..kernel_store import observed, to_ndarray
 from ..sim import KernelSim
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4")
@@ -50,7 +51,6 @@ class GravitySim(KernelSim):
 
     def __init__(self, scene, dt, integrator):
         from .. import gravity_kernels as gk
-        from ..kernel_store import to_ndarray
         from .pivots import runtime_kernels
         bodies, self.pairs = scene.particles, gravity_pairs_of(scene)
         made = runtime_kernels()
@@ -66,7 +66,7 @@ class GravitySim(KernelSim):
         super().__init__(dt, integrator, "", (self.x, self.v, *scratch, pack))
 
     def _observe(self):
-        x, v = self.x.to_numpy(), self.v.to_numpy()
+        x, v = observed(self.x), observed(self.v)
         inv = self.model.invariants(x.reshape(-1), v.reshape(-1))
         return {"x": x, "v": v, "energy": float(inv.pop("energy")), **inv}
 

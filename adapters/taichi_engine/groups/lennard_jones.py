@@ -15,7 +15,7 @@ import numpy as np
 from refsim.engine import ModelGroup
 from refsim.scene.lennard_jones import lennard_jones_of
 
-from ..kernel_store import to_ndarray
+from ..kernel_store import STATE_ARRAYS, observed, to_ndarray
 from ..runtime import THREADS, effective_config
 from ..sim import KernelSim
 
@@ -28,8 +28,8 @@ NATIVE = {"velocity_verlet": "kernel: v += h/2 a; x += h v; a = a(x); v += h/2 a
 
 
 class LennardJonesSim(KernelSim):
-    """x, v as vec3 ndarrays; the part's parameters, stage arrays and grid in the `lj_t`
-    argpack; kernels made once per process and stepper."""
+    """x, v as (n, 3) numpy arrays (vec3 rows); the part's parameters, stage arrays and grid
+    in the `lj_t` argpack; kernels made once per process and stepper."""
 
     system = "lennard_jones"
 
@@ -69,7 +69,7 @@ class LennardJonesSim(KernelSim):
         return self.nd
 
     def _observe(self):
-        x, v = self.x.to_numpy(), self.v.to_numpy()
+        x, v = observed(self.x), observed(self.v)
         return {"x": x, "v": v, "momentum": np.sum(self.masses[:, None] * v, axis=0)}
 
     def settings(self):
@@ -77,6 +77,7 @@ class LennardJonesSim(KernelSim):
         return {"integrator": {**self.stepper.describe(), "native": NATIVE[self.integrator]},
                 "dtype": "float64", "threads": THREADS, **effective_config(),
                 "time_loop": "time loop inside one kernel, ti.loop_config(serialize=True)",
+                "arrays": STATE_ARRAYS,
                 "compile": "cold JIT in this build" if self.cold else
                 "kernels already compiled in this process (launch time only)",
                 "per_step_python_call": "none (one launch per Sim.step(n) call)",
