@@ -1,7 +1,8 @@
 """Kernels made from the taichi runtime (one per system and stepper, per process, kept in
-`runtime()["kernels"]`), the measured cost of a launch, and the numpy arrays handed to the
-kernels. Apart from `runtime` because the kernel modules import the runtime to initialise
-taichi: the runtime importing them back made a circle."""
+`runtime()["kernels"]`), the measured cost of a launch, and the arrays handed to the kernels
+(numpy arrays where Python reads or writes them, taichi ndarrays where only kernels do).
+Apart from `runtime` because the kernel modules import the runtime to initialise taichi: the
+runtime importing them back made a circle."""
 from __future__ import annotations
 
 import math
@@ -15,9 +16,6 @@ from .runtime import runtime
 # ndarray, us (measured, taichi 1.7.4, best of 30 x 200 launches of empty kernels: 6 us at
 # top level, 8-10 us inside an argpack; 11 us a vec3/f64 array over free_fall's 9)
 EXTERNAL_ARRAY_LAUNCH_US = 10
-# what every Sim's settings say of its arrays ("arrays")
-STATE_ARRAYS = ("numpy arrays handed to the kernels as external arrays (arch=ti.cpu: zero-copy, "
-                "read and written in place; no taichi ndarray); observe() copies them")
 
 
 def _make_kernels(system: str, integrator: str):
@@ -57,16 +55,41 @@ def launch_overhead_us(advance, args) -> float:
 
 
 def to_ndarray(arr) -> np.ndarray:
-    """A kernel's array holding a copy of `arr`: a C-contiguous numpy array, int32 / int64 kept,
-    anything else float64 ((n, 3) / (n, 2) / (n, 4) / (n, 3, 3) rows are the kernels' vec3 /
-    vec2 / vec4 / mat3 elements). The runtime is arch=ti.cpu, so taichi hands a kernel the
-    array's own memory (an external array: zero-copy, written in place; no taichi ndarray, no
-    to_numpy/from_numpy kernel of 110-250 us per transfer)."""
+    """An array the kernels share with Python (state observed, counters read): a C-contiguous
+    numpy copy of `arr`, int32 / int64 kept, anything else float64 ((n, 2) / (n, 3) / (n, 4)
+    rows are the kernels' vec2 / vec3 / vec4 elements). The runtime is arch=ti.cpu, so taichi
+    hands a kernel the array's own memory (an external array: zero-copy, written in place),
+    and reading it costs a numpy copy (`observed`) instead of a taichi ndarray's to_numpy
+    kernel (110-250 us a call)."""
     arr = np.asarray(arr)
     dtype = arr.dtype if arr.dtype in (np.dtype(np.int32), np.dtype(np.int64)) else np.float64
     return np.array(arr, dtype=dtype, order="C", copy=True)
 
 
+def to_taichi(arr, dtype=None):
+    """An array only the kernels touch (parameters, scratch): a taichi ndarray holding `arr`,
+    cheaper to launch with than a numpy array (EXTERNAL_ARRAY_LAUNCH_US). Element type `dtype`,
+    else (n, 3) / (n, 2) float64 as vec3 / vec2 and 1-D arrays by dtype (int32, int64, f64)."""
+    from . import kernel_types as kt
+    ti = kt.ti
+    arr = np.ascontiguousarray(arr)
+    if dtype is None and arr.ndim == 2:
+        dtype = {2: kt.vec2, 3: kt.vec3}[arr.shape[1]]
+    elif dtype is None:
+        dtype = {np.dtype(np.int32): ti.i32, np.dtype(np.int64): ti.i64}.get(arr.dtype, ti.f64)
+    out = ti.ndarray(dtype, arr.shape[0])
+    out.from_numpy(arr)
+    return out
+
+
 def observed(arr: np.ndarray) -> np.ndarray:
-    """A copy of a kernel's array, for `Sim.observe` (the kernels write the array in place)."""
+    """A copy of a kernel's numpy array, for `Sim.observe` (the kernels write it in place)."""
     return arr.copy()
+
+
+def arrays_setting(*names) -> str:
+    """What a Sim's settings say of its arrays: `names` (those Python reads) are numpy."""
+    return (f"{', '.join(names)}: numpy arrays handed to the kernels as external arrays "
+            "(arch=ti.cpu: zero-copy, written in place; observe() copies them); parameters and "
+            "kernel-only scratch: taichi ndarrays (an external array adds about "
+            f"{EXTERNAL_ARRAY_LAUNCH_US} us to a launch)")

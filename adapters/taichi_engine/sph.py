@@ -14,12 +14,13 @@ import numpy as np
 
 from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                   plane_gravity, wall_particles)
-from .kernel_store import observed, to_ndarray
+from .kernel_store import observed, to_ndarray, to_taichi
 from .runtime import THREADS, runtime
 from .sim import KernelSim
 
 SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)
 SPH_STATS = ("steps_without_grid", "steps")  # the kernels' counters, in `stats` order
+HOST_SPH_ARRAYS = ("rho", "stats")  # read by Python: numpy (the rest: taichi ndarrays)
 
 
 class FluidSim(KernelSim):
@@ -27,6 +28,7 @@ class FluidSim(KernelSim):
     pressure, rates, the grid and counters in the `sph_t` argpack."""
 
     system = "sph"
+    host_arrays = ("x", "v") + HOST_SPH_ARRAYS
 
     def __init__(self, scene, dt, integrator, variant):
         from .sph_kernels import sph_t, vec2
@@ -38,7 +40,8 @@ class FluidSim(KernelSim):
         self.mass = fluid.density * fluid.spacing ** 2
         self.h = fluid.smoothing * fluid.spacing
         self.cells = SPH_CELLS_PER_PARTICLE * (self.n_fluid + self.n_wall) + 64
-        self.nd = {key: to_ndarray(arr) for key, arr in self._arrays(rho).items()}
+        self.nd = {key: (to_ndarray if key in HOST_SPH_ARRAYS else to_taichi)(arr)
+                   for key, arr in self._arrays(rho).items()}
         self.x = to_ndarray(np.concatenate([x, walls]))
         self.v = to_ndarray(np.zeros((self.n_fluid + self.n_wall, 2)))
         pack = sph_t(n_fluid=self.n_fluid, no_slip=int(fluid.no_slip),

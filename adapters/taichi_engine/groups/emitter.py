@@ -25,7 +25,7 @@ from refsim.integrators import get_integrator
 from refsim.models import emitter as em
 from refsim.scene.emitter import FREE_SLOT_VALUE, emitter_of
 
-from ..kernel_store import STATE_ARRAYS, observed, to_ndarray
+from ..kernel_store import arrays_setting, observed, to_taichi
 from .flocking import chain_tableau
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4", "explicit_euler", "midpoint")
@@ -53,8 +53,8 @@ class EmitterKernelSim(Sim):
         g = np.zeros(3) if formulation == "as_printed" else np.asarray(scene.gravity, float)
         self.method, (a_next, b, stages) = method_of(self.stepper)
         self.x, self.v = np.zeros((self.capacity, 3)), np.zeros((self.capacity, 3))
-        self.pack = ek.ballistic_t(g=ek.vec3(*g.tolist()), rk_a=to_ndarray(a_next),
-                                   rk_b=to_ndarray(b), stages=stages)
+        self.pack = ek.ballistic_t(g=ek.vec3(*g.tolist()), rk_a=to_taichi(a_next),
+                                   rk_b=to_taichi(b), stages=stages)
         self.advance = ek.advance_emitter
         self.cold = "emitter" not in rt["compiled"]
         t0 = time.perf_counter()
@@ -123,7 +123,7 @@ class EmitterKernelSim(Sim):
                                    "slot ids",
                 "time_loop": "one launch per Sim.step(n); slots outermost in the kernel, each "
                              "slot's steps serial",
-                "arrays": STATE_ARRAYS,
+                "arrays": arrays_setting("x", "v", "each launch's birth events"),
                 "kernel": "one kernel for every stepper (runtime code, tableau as arrays)",
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)",

@@ -24,7 +24,7 @@ from refsim.integrators.first_order import get_first_order
 from refsim.scene.surface_sampling import surface_sampling_of
 from refsim.scene.velocity_field import velocity_field_of
 
-from ..kernel_store import STATE_ARRAYS, observed, to_ndarray
+from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..sim import I32_MAX
 
 SAMPLING_NATIVE = ("kernel: the tableau (a runtime array) stage by stage over all particles "
@@ -83,7 +83,7 @@ class AffineFieldSim(Sim):
                 "time_loop": "inside one kernel per Sim.step(n): particles outermost "
                              "(parallel), each particle's steps serial",
                 "implicit_euler": "(I - h M)^-1 formed once per launch (taichi 3x3 inverse)",
-                "arrays": STATE_ARRAYS,
+                "arrays": arrays_setting("p"),
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)"}
 
@@ -108,9 +108,9 @@ class SphereSamplingSim(Sim):
         start = self.system.project(np.array(scene.particles.position, float))  # as refsim
         self.p = to_ndarray(start)
         tableau = sk.tableau_array(self.stepper.tableau)
-        slopes = np.zeros((len(self.stepper.tableau.b), len(start), 3))  # vec3 (stages, n)
+        slopes = rt["ti"].ndarray(sk.vec3, shape=(len(self.stepper.tableau.b), len(start)))
         pack = sk.sampling_pack(part.radius, part.centre, part.sigma, part.alpha)
-        self.args = (self.p, to_ndarray(np.zeros_like(start)), slopes, to_ndarray(tableau),
+        self.args = (self.p, to_taichi(np.zeros_like(start)), slopes, to_taichi(tableau),
                      pack)
         t0 = time.perf_counter()
         self.advance(*self.args, self.dt, 0)  # compiles on first use
@@ -142,8 +142,8 @@ class SphereSamplingSim(Sim):
                 "pairs": "all pairs (no cut-off), j = i included (its term is 0), as refsim",
                 "time_loop": "inside one kernel per Sim.step(n), ti.loop_config(serialize="
                              "True): each stage's loops over particles and pairs serial",
-                "arrays": STATE_ARRAYS,
-                "kernel_args": "arrays + argpack, the tableau an array, n a runtime i32 "
+                "arrays": arrays_setting("p"),
+                "kernel_args": "arrays + argpack, the tableau an ndarray, n a runtime i32 "
                                "(one kernel for every stepper and N: no recompilation)",
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)"}

@@ -16,7 +16,7 @@ from refsim.engine import ModelGroup
 from refsim.models.nbody_gravity import GravitySystem
 from refsim.scene.gravity_pairs import gravity_pairs_of
 
-from ..kernel_store import observed, to_ndarray
+from ..kernel_store import observed, to_ndarray, to_taichi
 from ..sim import KernelSim
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4")
@@ -59,8 +59,8 @@ class GravitySim(KernelSim):
         n = len(bodies)
         self.x = to_ndarray(np.array(bodies.position, float))
         self.v = to_ndarray(np.array(bodies.velocity, float))
-        scratch = [to_ndarray(np.zeros((n, 3))) for _ in range(5)]  # a, xs, vs, sx, sv
-        pack = gk.gravity_t(mass=to_ndarray(np.array(bodies.mass, float)), G=self.pairs.G,
+        scratch = [to_taichi(np.zeros((n, 3))) for _ in range(5)]  # a, xs, vs, sx, sv
+        pack = gk.gravity_t(mass=to_taichi(np.array(bodies.mass, float)), G=self.pairs.G,
                             eps2=self.pairs.softening ** 2)
         self.model = GravitySystem(bodies.mass, self.pairs.G, self.pairs.softening)
         super().__init__(dt, integrator, "", (self.x, self.v, *scratch, pack))

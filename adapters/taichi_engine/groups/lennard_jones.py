@@ -15,7 +15,7 @@ import numpy as np
 from refsim.engine import ModelGroup
 from refsim.scene.lennard_jones import lennard_jones_of
 
-from ..kernel_store import STATE_ARRAYS, observed, to_ndarray
+from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..runtime import THREADS, effective_config
 from ..sim import KernelSim
 
@@ -58,14 +58,14 @@ class LennardJonesSim(KernelSim):
 
     def _arrays(self, n) -> dict:
         cells = CELLS_PER_PARTICLE * n + 64
-        self.nd = {name: to_ndarray(np.zeros((n, 3))) for name in ("acc", "xs", "vs", "sx",
-                                                                    "sv")}
-        self.nd.update(inv_mass=to_ndarray(1.0 / self.masses),
-                       cell_start=to_ndarray(np.zeros(cells, np.int32)),
-                       cell_end=to_ndarray(np.zeros(cells, np.int32)),
-                       cell_of=to_ndarray(np.zeros(n, np.int32)),
-                       order=to_ndarray(np.zeros(n, np.int32)),
-                       grid=to_ndarray(np.zeros(6)), dims=to_ndarray(np.zeros(3, np.int32)))
+        self.nd = {name: to_taichi(np.zeros((n, 3))) for name in ("acc", "xs", "vs", "sx",
+                                                                   "sv")}
+        self.nd.update(inv_mass=to_taichi(1.0 / self.masses),
+                       cell_start=to_taichi(np.zeros(cells, np.int32)),
+                       cell_end=to_taichi(np.zeros(cells, np.int32)),
+                       cell_of=to_taichi(np.zeros(n, np.int32)),
+                       order=to_taichi(np.zeros(n, np.int32)),
+                       grid=to_taichi(np.zeros(6)), dims=to_taichi(np.zeros(3, np.int32)))
         return self.nd
 
     def _observe(self):
@@ -77,7 +77,7 @@ class LennardJonesSim(KernelSim):
         return {"integrator": {**self.stepper.describe(), "native": NATIVE[self.integrator]},
                 "dtype": "float64", "threads": THREADS, **effective_config(),
                 "time_loop": "time loop inside one kernel, ti.loop_config(serialize=True)",
-                "arrays": STATE_ARRAYS,
+                "arrays": arrays_setting("x", "v"),
                 "compile": "cold JIT in this build" if self.cold else
                 "kernels already compiled in this process (launch time only)",
                 "per_step_python_call": "none (one launch per Sim.step(n) call)",

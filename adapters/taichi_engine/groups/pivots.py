@@ -22,7 +22,7 @@ from refsim.engine import ModelGroup
 from refsim.models.rigid_pivot import pivot_inertia
 from refsim.scene.pivots import check_on_anchor, pivots_of
 
-from ..kernel_store import observed, to_ndarray
+from ..kernel_store import observed, to_ndarray, to_taichi
 from ..sim import KernelSim
 from .rigid import (
     FORMULATIONS,
@@ -74,9 +74,11 @@ class PivotSim(KernelSim):
     """Pivoted bodies stepped by pivot_kernels; kernels made once per process and stepper."""
 
     system = "pivots"
+    host_arrays = ("q", "w", "norm_product")
 
     def __init__(self, scene, dt, integrator, formulation):
         from .. import pivot_kernels as pk
+        from .. import rigid_kernels as rk
         body, pivots = scene.rigid, pivots_of(scene)
         check_on_anchor(pivots, body)
         order = np.argsort(pivots.body)  # every body pivoted once: sorted bodies = 0..n-1
@@ -91,10 +93,11 @@ class PivotSim(KernelSim):
         self.q = to_ndarray(body.orientation)
         self.w = to_ndarray(body.angular_velocity)
         self.norm_product = to_ndarray(np.ones(len(body)))
-        pack = pk.pivot_t(inertia_pivot=to_ndarray(self.inertia_pivot),
-                          inertia_pivot_inv=to_ndarray(np.linalg.inv(self.inertia_pivot)),
-                          com_offset=to_ndarray(self.com_offset),
-                          weight=to_ndarray(self.weight),
+        pack = pk.pivot_t(inertia_pivot=to_taichi(self.inertia_pivot, rk.mat3),
+                          inertia_pivot_inv=to_taichi(np.linalg.inv(self.inertia_pivot),
+                                                      rk.mat3),
+                          com_offset=to_taichi(self.com_offset),
+                          weight=to_taichi(self.weight),
                           normalise=pk.FORMULATIONS.index(formulation))
         super().__init__(dt, integrator, "", (self.q, self.w, self.norm_product, pack))
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 
-from ..kernel_store import observed, to_ndarray
+from ..kernel_store import observed, to_ndarray, to_taichi
 from ..runtime import runtime
 from ..sim import KernelSim
 
@@ -87,6 +87,7 @@ class RigidSim(KernelSim):
     """Rigid bodies stepped by rigid_kernels; kernels made once per process and stepper."""
 
     system = "rigid"
+    host_arrays = ("x", "v", "q", "w", "norm_product")
 
     def __init__(self, scene, dt, integrator, formulation):
         from .. import rigid_kernels as rk
@@ -100,8 +101,8 @@ class RigidSim(KernelSim):
                                   (body.position, body.velocity, body.angular_velocity))
         self.q = to_ndarray(body.orientation)  # (n, 4): vec4 rows
         self.norm_product = to_ndarray(np.ones(n))
-        pack = rk.rigid_t(inertia0=to_ndarray(body.inertia),  # (n, 3, 3): mat3 rows
-                          inertia0_inv=to_ndarray(np.linalg.inv(body.inertia)),
+        pack = rk.rigid_t(inertia0=to_taichi(body.inertia, rk.mat3),
+                          inertia0_inv=to_taichi(np.linalg.inv(body.inertia), rk.mat3),
                           gravity=rk.vec3(*scene.gravity),
                           normalise=rk.FORMULATIONS.index(formulation))
         super().__init__(dt, integrator, "", (self.x, self.v, self.q, self.w,
