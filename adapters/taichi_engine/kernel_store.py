@@ -12,10 +12,11 @@ import numpy as np
 
 from .runtime import runtime
 
-# launch cost from Python that one numpy (external) array argument adds against a taichi
-# ndarray, us (measured, taichi 1.7.4, best of 30 x 200 launches of empty kernels: 6 us at
-# top level, 8-10 us inside an argpack; 11 us a vec3/f64 array over free_fall's 9)
-EXTERNAL_ARRAY_LAUNCH_US = 10
+# what numpy (external) array arguments add to a launch from Python against taichi ndarrays
+# (taichi 1.7.4, measured on free_fall's particle kernel with n = 0, best of 40 x 100 launches,
+# interleaved: 9 ndarrays 138 us; x numpy 167 us; x, v numpy 168 us; all 9 numpy 209 us)
+EXTERNAL_LAUNCH_COST = ("about 30 us a launch for the first numpy external array, about 5 us "
+                        "for each further one (taichi 1.7.4, measured against taichi ndarrays)")
 
 
 def _make_kernels(system: str, integrator: str):
@@ -68,7 +69,7 @@ def to_ndarray(arr) -> np.ndarray:
 
 def to_taichi(arr, dtype=None):
     """An array only the kernels touch (parameters, scratch): a taichi ndarray holding `arr`,
-    cheaper to launch with than a numpy array (EXTERNAL_ARRAY_LAUNCH_US). Element type `dtype`,
+    cheaper to launch with than a numpy array (EXTERNAL_LAUNCH_COST). Element type `dtype`,
     else (n, 3) / (n, 2) float64 as vec3 / vec2 and 1-D arrays by dtype (int32, int64, f64)."""
     from . import kernel_types as kt
     ti = kt.ti
@@ -91,5 +92,4 @@ def arrays_setting(*names) -> str:
     """What a Sim's settings say of its arrays: `names` (those Python reads) are numpy."""
     return (f"{', '.join(names)}: numpy arrays handed to the kernels as external arrays "
             "(arch=ti.cpu: zero-copy, written in place; observe() copies them); parameters and "
-            "kernel-only scratch: taichi ndarrays (an external array adds about "
-            f"{EXTERNAL_ARRAY_LAUNCH_US} us to a launch)")
+            f"kernel-only scratch: taichi ndarrays (external arrays cost {EXTERNAL_LAUNCH_COST})")

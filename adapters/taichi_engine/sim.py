@@ -11,9 +11,9 @@ ENGINE_NOTES.md facts applied here (taichi 1.7.4):
   which taichi passes to a kernel as external arrays (on the CPU the kernel reads and writes
   their memory: observing is a numpy copy, ~0.3 us, where a taichi ndarray's to_numpy launches
   a kernel, 110-250 us). taichi's Python side sets up each external array argument more slowly
-  than an ndarray one (kernel_store.EXTERNAL_ARRAY_LAUNCH_US more per launch, argpack members
-  included), so parameters and kernel-only scratch stay taichi ndarrays; the measured launch
-  cost contains the external arrays' share;
+  than an ndarray one (kernel_store.EXTERNAL_LAUNCH_COST: ~30 us a launch for the first, ~5 us
+  each further one), so parameters and kernel-only scratch stay taichi ndarrays; the measured
+  launch cost contains the external arrays' share;
 - the first call compiles (about 0.1 s cold) and each new template argument recompiles: build
   makes the first calls and reports their time as `compile_s`; n is a runtime i32, so no step
   recompiles anything.
@@ -26,7 +26,7 @@ from refsim.engine import Sim
 from refsim.integrators import get_integrator
 
 from .kernel_store import (
-    EXTERNAL_ARRAY_LAUNCH_US,
+    EXTERNAL_LAUNCH_COST,
     arrays_setting,
     kernels,
     launch_overhead_us,
@@ -96,10 +96,9 @@ class KernelSim(Sim):
         if self.launch_us is not None:
             out["per_step_python_call_us"] = self.launch_us
             out["per_step_python_call"] = (
-                "one kernel launch per step: its measured cost (ENGINE_NOTES: about 29 us; "
-                f"its {len(self.host_arrays)} numpy external arrays add about "
-                f"{EXTERNAL_ARRAY_LAUNCH_US} us each against taichi ndarrays, included) is part "
-                "of step_s")
+                "one kernel launch per step: its measured cost (per_step_python_call_us; "
+                "ENGINE_NOTES: about 29 us with taichi ndarrays) is part of step_s and includes "
+                f"its {len(self.host_arrays)} numpy external arrays: {EXTERNAL_LAUNCH_COST}")
         else:
             out["per_step_python_call"] = "none (one launch per Sim.step(n) call)"
         return out

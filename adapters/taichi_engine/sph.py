@@ -14,7 +14,7 @@ import numpy as np
 
 from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                   plane_gravity, wall_particles)
-from .kernel_store import observed, to_ndarray, to_taichi
+from .kernel_store import EXTERNAL_LAUNCH_COST, observed, to_ndarray, to_taichi
 from .runtime import THREADS, runtime
 from .sim import KernelSim
 
@@ -92,7 +92,9 @@ class FluidSim(KernelSim):
         return {"threads_used": base["cpu_max_num_threads"],
                 "time_loop": "one launch per step from Python; each stage a top-level loop "
                              "run on cpu_max_num_threads threads (counting sort serial)",
-                "per_step_python_call": "one kernel launch per step (part of step_s)",
+                "per_step_python_call": "one kernel launch per step (part of step_s), with "
+                                        f"{len(self.host_arrays)} numpy external arrays: "
+                                        f"{EXTERNAL_LAUNCH_COST}",
                 "threads_note": "stages gather per particle (no atomics), so results are "
                                 "bit-identical to the serial kernel at any thread count; "
                                 "the process pins cpu_max_num_threads at ti.init "
