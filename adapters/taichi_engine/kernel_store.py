@@ -15,8 +15,8 @@ from .runtime import runtime
 # what numpy (external) array arguments add to a launch from Python against taichi ndarrays
 # (taichi 1.7.4, measured on free_fall's particle kernel with n = 0, best of 40 x 100 launches,
 # interleaved: 9 ndarrays 138 us; x numpy 167 us; x, v numpy 168 us; all 9 numpy 209 us)
-EXTERNAL_LAUNCH_COST = ("about 30 us a launch for the first numpy external array, about 5 us "
-                        "for each further one (taichi 1.7.4, measured against taichi ndarrays)")
+EXTERNAL_LAUNCH_COST = ("about 30 us a launch for the first numpy external array and 5 us for "
+                        "each further one, against taichi ndarrays (taichi 1.7.4, measured)")
 
 
 def _make_kernels(system: str, integrator: str):
@@ -92,4 +92,5 @@ def arrays_setting(*names) -> str:
     """What a Sim's settings say of its arrays: `names` (those Python reads) are numpy."""
     return (f"{', '.join(names)}: numpy arrays handed to the kernels as external arrays "
             "(arch=ti.cpu: zero-copy, written in place; observe() copies them); parameters and "
-            f"kernel-only scratch: taichi ndarrays (external arrays cost {EXTERNAL_LAUNCH_COST})")
+            "kernel-only scratch: taichi ndarrays, cheaper to launch with: "
+            f"{EXTERNAL_LAUNCH_COST}")
