@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..common.hinges import HingeFrames
-from .kernel_store import to_ndarray
+from .kernel_store import observed, to_ndarray, to_taichi
 from .sim import KernelSim
 
 
@@ -24,7 +24,7 @@ def particle_pack(scene):
     velocity_dependent = int(scene.linear_drag > 0 or any(s.damping > 0 for s in springs))
     return particles_t(gravity=vec3(*scene.gravity), drag=scene.linear_drag,
                        velocity_dependent=velocity_dependent,
-                       **{key: to_ndarray(arr) for key, arr in arrays.items()})
+                       **{key: to_taichi(arr) for key, arr in arrays.items()})
 
 
 def force_stages(scene) -> list:
@@ -41,11 +41,11 @@ class ParticleSim(KernelSim):
         self.scene = scene
         n = len(scene.bodies)
         self.x, self.v = to_ndarray(scene.positions), to_ndarray(scene.velocities)
-        accel = to_ndarray(np.zeros((n, 3)))
+        accel = to_taichi(np.zeros((n, 3)))
         super().__init__(dt, integrator, variant, (self.x, self.v, accel, particle_pack(scene)))
 
     def _observe(self):
-        return {"x": self.x.to_numpy().reshape(-1, 3), "v": self.v.to_numpy().reshape(-1, 3)}
+        return {"x": observed(self.x), "v": observed(self.v)}
 
     def settings(self):
         return {**self.base_settings(), "formulation": "cartesian point masses",
@@ -59,6 +59,7 @@ class HingeSim(KernelSim):
     mapped to the bob with refsim's hinge frame (adapters.common.hinges.HingeFrames)."""
 
     system = "hinges"
+    host_arrays = ("theta", "omega")
 
     def __init__(self, scene, dt, integrator, variant):
         from .particle_kernels import hinges_t
@@ -69,14 +70,15 @@ class HingeSim(KernelSim):
         arrays = [np.asarray(theta0, float), np.asarray(omega0, float),
                   np.zeros(len(frames.bodies)), frames.g_plane / frames.length,
                   np.full(len(frames.bodies), scene.linear_drag) / masses]
-        nd = [to_ndarray(np.asarray(arr, float)) for arr in arrays]
+        nd = [to_ndarray(np.asarray(arr, float)) for arr in arrays[:2]]  # theta, omega
+        nd += [to_taichi(np.asarray(arr, float)) for arr in arrays[2:]]
         pack = hinges_t(g_over_l=nd[3], drag_over_m=nd[4],
                         velocity_dependent=int(scene.linear_drag > 0))
         self.x, self.v = nd[0], nd[1]
         super().__init__(dt, integrator, variant, (*nd[:3], pack))
 
     def _observe(self):
-        x, v = self.frames.cartesian(self.x.to_numpy(), self.v.to_numpy(),
+        x, v = self.frames.cartesian(observed(self.x), observed(self.v),
                                      self.scene.positions, self.scene.velocities)
         return {"x": x, "v": v, "constraint": np.zeros(len(self.frames.bodies))}
 

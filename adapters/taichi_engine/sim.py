@@ -7,6 +7,13 @@ ENGINE_NOTES.md facts applied here (taichi 1.7.4):
   number of array arguments) against ~0.05 us per step inside a kernel: the default runs the
   loop in the kernel; the engine variant "launch_per_step" launches once per step and records
   the launch cost it measured;
+- the arrays Python reads (the observed state, counters: `host_arrays`) are numpy arrays,
+  which taichi passes to a kernel as external arrays (on the CPU the kernel reads and writes
+  their memory: observing is a numpy copy, ~0.3 us, where a taichi ndarray's to_numpy launches
+  a kernel, 110-250 us). taichi's Python side sets up each external array argument more slowly
+  than an ndarray one (kernel_store.EXTERNAL_LAUNCH_COST: ~30 us a launch for the first, ~5 us
+  each further one), so parameters and kernel-only scratch stay taichi ndarrays; the measured
+  launch cost contains the external arrays' share;
 - the first call compiles (about 0.1 s cold) and each new template argument recompiles: build
   makes the first calls and reports their time as `compile_s`; n is a runtime i32, so no step
   recompiles anything.
@@ -18,7 +25,12 @@ import time
 from refsim.engine import Sim
 from refsim.integrators import get_integrator
 
-from .kernel_store import kernels, launch_overhead_us
+from .kernel_store import (
+    EXTERNAL_LAUNCH_COST,
+    arrays_setting,
+    kernels,
+    launch_overhead_us,
+)
 from .runtime import THREADS, effective_config, runtime
 
 NATIVE = {"symplectic_euler": "kernel kick_drift: v += h a(x, v); x += h v",
@@ -30,9 +42,11 @@ I32_MAX = 2 ** 31 - 1  # steps per launch at most (n is an i32 kernel argument)
 
 class KernelSim(Sim):
     """A system stepped by taichi kernels. `args` are the kernel arguments before h and n
-    (state ndarrays and argpacks); subclasses set `system` (the kernels' key in runtime)."""
+    (arrays and argpacks); subclasses set `system` (the kernels' key in runtime) and
+    `host_arrays` (the arrays held as numpy, named in settings)."""
 
     system = ""
+    host_arrays = ("x", "v")
 
     def __init__(self, dt, integrator, variant, args):
         rt = runtime()
@@ -74,14 +88,17 @@ class KernelSim(Sim):
                 else "time loop inside one kernel, ti.loop_config(serialize=True)")
         out = {"integrator": {**described, "native": NATIVE[self.integrator]},
                "dtype": "float64", "threads": THREADS, **effective_config(),
-               "time_loop": loop, "kernel_args": "ndarray + argpack, n a runtime i32 "
+               "time_loop": loop, "arrays": arrays_setting(*self.host_arrays),
+               "kernel_args": "arrays + argpack, n a runtime i32 "
                "(no recompilation per build or per step count)",
                "compile": "cold JIT in this build" if self.cold else
                "kernels already compiled in this process (launch time only)"}
         if self.launch_us is not None:
             out["per_step_python_call_us"] = self.launch_us
-            out["per_step_python_call"] = ("one kernel launch per step: its measured cost "
-                                           "(ENGINE_NOTES: about 29 us) is part of step_s")
+            out["per_step_python_call"] = (
+                "one kernel launch per step: its measured cost (per_step_python_call_us; "
+                "ENGINE_NOTES: about 29 us with taichi ndarrays) is part of step_s and includes "
+                f"its {len(self.host_arrays)} numpy external arrays: {EXTERNAL_LAUNCH_COST}")
         else:
             out["per_step_python_call"] = "none (one launch per Sim.step(n) call)"
         return out

@@ -14,19 +14,21 @@ import numpy as np
 
 from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                   plane_gravity, wall_particles)
-from .kernel_store import to_ndarray
+from .kernel_store import EXTERNAL_LAUNCH_COST, observed, to_ndarray, to_taichi
 from .runtime import THREADS, runtime
 from .sim import KernelSim
 
 SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)
 SPH_STATS = ("steps_without_grid", "steps")  # the kernels' counters, in `stats` order
+HOST_SPH_ARRAYS = ("rho", "stats")  # read by Python: numpy (the rest: taichi ndarrays)
 
 
 class FluidSim(KernelSim):
-    """Fluid particles then wall particles in one (x, v) pair of vec2 ndarrays; density,
+    """Fluid particles then wall particles in one (x, v) pair of (n, 2) numpy arrays; density,
     pressure, rates, the grid and counters in the `sph_t` argpack."""
 
     system = "sph"
+    host_arrays = ("x", "v") + HOST_SPH_ARRAYS
 
     def __init__(self, scene, dt, integrator, variant):
         from .sph_kernels import sph_t, vec2
@@ -38,7 +40,8 @@ class FluidSim(KernelSim):
         self.mass = fluid.density * fluid.spacing ** 2
         self.h = fluid.smoothing * fluid.spacing
         self.cells = SPH_CELLS_PER_PARTICLE * (self.n_fluid + self.n_wall) + 64
-        self.nd = {key: to_ndarray(arr) for key, arr in self._arrays(rho).items()}
+        self.nd = {key: (to_ndarray if key in HOST_SPH_ARRAYS else to_taichi)(arr)
+                   for key, arr in self._arrays(rho).items()}
         self.x = to_ndarray(np.concatenate([x, walls]))
         self.v = to_ndarray(np.zeros((self.n_fluid + self.n_wall, 2)))
         pack = sph_t(n_fluid=self.n_fluid, no_slip=int(fluid.no_slip),
@@ -77,7 +80,7 @@ class FluidSim(KernelSim):
         self.compile_s += time.perf_counter() - t0
         self.cold = self.cold or key not in rt["compiled"]
         rt["compiled"].add(key)
-        self.nd["stats"].from_numpy(np.zeros(len(SPH_STATS), np.int64))
+        self.nd["stats"][:] = 0
         self.advance = advance_sph_parallel
 
     def _thread_settings(self, base) -> dict:
@@ -89,7 +92,9 @@ class FluidSim(KernelSim):
         return {"threads_used": base["cpu_max_num_threads"],
                 "time_loop": "one launch per step from Python; each stage a top-level loop "
                              "run on cpu_max_num_threads threads (counting sort serial)",
-                "per_step_python_call": "one kernel launch per step (part of step_s)",
+                "per_step_python_call": "one kernel launch per step (part of step_s), with "
+                                        f"{len(self.host_arrays)} numpy external arrays: "
+                                        f"{EXTERNAL_LAUNCH_COST}",
                 "threads_note": "stages gather per particle (no atomics), so results are "
                                 "bit-identical to the serial kernel at any thread count; "
                                 "the process pins cpu_max_num_threads at ti.init "
@@ -107,12 +112,12 @@ class FluidSim(KernelSim):
             self.failure = f"non-finite particle positions by t={self.time_after(n):.6g}"
 
     def sph_stats(self) -> dict:
-        return dict(zip(SPH_STATS, (int(c) for c in self.nd["stats"].to_numpy())))
+        return dict(zip(SPH_STATS, (int(c) for c in self.nd["stats"])))
 
     def _observe(self):
         n = self.n_fluid
-        return {"x": self.x.to_numpy()[:n].copy(), "v": self.v.to_numpy()[:n].copy(),
-                "rho": self.nd["rho"].to_numpy()[:n].copy(), "mass": np.full(n, self.mass)}
+        return {"x": observed(self.x[:n]), "v": observed(self.v[:n]),
+                "rho": observed(self.nd["rho"][:n]), "mass": np.full(n, self.mass)}
 
     def settings(self):
         f = self.fluid

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .particles import force_stages, particle_pack
-from .kernel_store import to_ndarray
+from .kernel_store import observed, to_ndarray, to_taichi
 from .sim import KernelSim
 
 MAX_PASSES = 100  # Gauss-Seidel impulse passes per step, at most
@@ -20,12 +20,14 @@ CONTACTS_PER_SPHERE = 16  # contact list size 16 N + 64; more is reported as a f
 # the kernel's counters (contact_kernels.record), in the order of the `stats` array
 STATS = ("dropped_contacts", "steps_without_grid", "max_passes", "steps_at_pass_cap",
          "impulses", "contacts", "steps")
+HOST_CONTACT_ARRAYS = ("wall_impulse", "stats", "depth_max")  # read by Python: numpy
 
 
 class SphereSim(KernelSim):
     """Spheres with contacts (and walls): kick-drift, then impulses on the drifted positions."""
 
     system = "spheres"
+    host_arrays = ("x", "v", "w") + HOST_CONTACT_ARRAYS
 
     def __init__(self, scene, dt, integrator, variant):
         from .contact_kernels import contacts_t
@@ -64,7 +66,8 @@ class SphereSim(KernelSim):
                   "contact_a": np.zeros(cap, np.int32), "contact_b": np.zeros(cap, np.int32),
                   "contact_n": np.zeros((cap, 3)), "wall_impulse": np.zeros((1, 3)),
                   "stats": np.zeros(len(STATS), np.int64), "depth_max": np.zeros(1)}
-        return {key: to_ndarray(arr) for key, arr in arrays.items()}
+        return {key: (to_ndarray if key in HOST_CONTACT_ARRAYS else to_taichi)(arr)
+                for key, arr in arrays.items()}
 
     def _step_impl(self, n):
         super()._step_impl(n)
@@ -78,14 +81,13 @@ class SphereSim(KernelSim):
 
     def contact_stats(self) -> dict:
         """Counters since build (see STATS) and the deepest overlap met before projection."""
-        out = dict(zip(STATS, (int(c) for c in self.nd["stats"].to_numpy())))
-        out["depth_max"] = float(self.nd["depth_max"].to_numpy()[0])
+        out = dict(zip(STATS, (int(c) for c in self.nd["stats"])))
+        out["depth_max"] = float(self.nd["depth_max"][0])
         return out
 
     def _observe(self):
-        return {"x": self.x.to_numpy().reshape(-1, 3), "v": self.v.to_numpy().reshape(-1, 3),
-                "w": self.w.to_numpy().reshape(-1, 3),
-                "wall_impulse": self.nd["wall_impulse"].to_numpy().reshape(3)}
+        return {"x": observed(self.x), "v": observed(self.v), "w": observed(self.w),
+                "wall_impulse": observed(self.nd["wall_impulse"]).reshape(3)}
 
     def settings(self):
         contact = self.scene.contact

@@ -25,6 +25,7 @@ from refsim.integrators import get_integrator
 from refsim.models import emitter as em
 from refsim.scene.emitter import FREE_SLOT_VALUE, emitter_of
 
+from ..kernel_store import arrays_setting, observed, to_taichi
 from .flocking import chain_tableau
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4", "explicit_euler", "midpoint")
@@ -42,7 +43,6 @@ def method_of(stepper):
 class EmitterKernelSim(Sim):
     def __init__(self, scene, dt, integrator, formulation):
         from .. import emitter_kernels as ek
-        from ..kernel_store import to_ndarray
         from ..runtime import runtime
         rt = runtime()
         self.dt, self.integrator, self.formulation = float(dt), integrator, formulation
@@ -53,8 +53,8 @@ class EmitterKernelSim(Sim):
         g = np.zeros(3) if formulation == "as_printed" else np.asarray(scene.gravity, float)
         self.method, (a_next, b, stages) = method_of(self.stepper)
         self.x, self.v = np.zeros((self.capacity, 3)), np.zeros((self.capacity, 3))
-        self.pack = ek.ballistic_t(g=ek.vec3(*g.tolist()), rk_a=to_ndarray(a_next),
-                                   rk_b=to_ndarray(b), stages=stages)
+        self.pack = ek.ballistic_t(g=ek.vec3(*g.tolist()), rk_a=to_taichi(a_next),
+                                   rk_b=to_taichi(b), stages=stages)
         self.advance = ek.advance_emitter
         self.cold = "emitter" not in rt["compiled"]
         t0 = time.perf_counter()
@@ -98,7 +98,7 @@ class EmitterKernelSim(Sim):
 
     def _observe(self):
         free = self.ids < 0
-        x, v = self.x.copy(), self.v.copy()
+        x, v = observed(self.x), observed(self.v)
         x[free], v[free] = FREE_SLOT_VALUE, FREE_SLOT_VALUE
         births = em.birth_steps(self.emitter, self.dt, np.maximum(self.ids, 0), self.formulation)
         return {"id": self.ids.copy(), "x": x, "v": v,
@@ -123,8 +123,7 @@ class EmitterKernelSim(Sim):
                                    "slot ids",
                 "time_loop": "one launch per Sim.step(n); slots outermost in the kernel, each "
                              "slot's steps serial",
-                "arrays": "numpy arrays handed to the kernel (external arrays, read and "
-                          "written in place)",
+                "arrays": arrays_setting("x", "v", "each launch's birth events"),
                 "kernel": "one kernel for every stepper (runtime code, tableau as arrays)",
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)",

@@ -24,6 +24,7 @@ from refsim.integrators.first_order import get_first_order
 from refsim.scene.surface_sampling import surface_sampling_of
 from refsim.scene.velocity_field import velocity_field_of
 
+from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..sim import I32_MAX
 
 SAMPLING_NATIVE = ("kernel: the tableau (a runtime array) stage by stage over all particles "
@@ -48,7 +49,6 @@ class AffineFieldSim(Sim):
 
     def __init__(self, scene, dt, integrator):
         from .. import first_order_kernels as fk
-        from ..kernel_store import to_ndarray
         from ..runtime import THREADS, effective_config, runtime
         rt = runtime()
         field = velocity_field_of(scene)
@@ -72,7 +72,7 @@ class AffineFieldSim(Sim):
         self.advance(*self.args, self.dt, int(n))
 
     def _observe(self):
-        x = self.p.to_numpy()
+        x = observed(self.p)
         return {"x": x, "v": (x - self.centre) @ self.matrix.T}
 
     def settings(self):
@@ -83,6 +83,7 @@ class AffineFieldSim(Sim):
                 "time_loop": "inside one kernel per Sim.step(n): particles outermost "
                              "(parallel), each particle's steps serial",
                 "implicit_euler": "(I - h M)^-1 formed once per launch (taichi 3x3 inverse)",
+                "arrays": arrays_setting("p"),
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)"}
 
@@ -95,7 +96,6 @@ class SphereSamplingSim(Sim):
 
     def __init__(self, scene, dt, integrator):
         from .. import sampling_kernels as sk
-        from ..kernel_store import to_ndarray
         from ..runtime import THREADS, effective_config, runtime
         rt = runtime()
         part = surface_sampling_of(scene)
@@ -110,7 +110,7 @@ class SphereSamplingSim(Sim):
         tableau = sk.tableau_array(self.stepper.tableau)
         slopes = rt["ti"].ndarray(sk.vec3, shape=(len(self.stepper.tableau.b), len(start)))
         pack = sk.sampling_pack(part.radius, part.centre, part.sigma, part.alpha)
-        self.args = (self.p, to_ndarray(np.zeros_like(start)), slopes, to_ndarray(tableau),
+        self.args = (self.p, to_taichi(np.zeros_like(start)), slopes, to_taichi(tableau),
                      pack)
         t0 = time.perf_counter()
         self.advance(*self.args, self.dt, 0)  # compiles on first use
@@ -126,7 +126,7 @@ class SphereSamplingSim(Sim):
             done += chunk
 
     def _observe(self):
-        x = self.p.to_numpy()
+        x = observed(self.p)
         return {"x": x, "v": self.system.velocity(self.time(), x),
                 "repulsion_energy": float(self.system.energy(x))}
 
@@ -142,7 +142,8 @@ class SphereSamplingSim(Sim):
                 "pairs": "all pairs (no cut-off), j = i included (its term is 0), as refsim",
                 "time_loop": "inside one kernel per Sim.step(n), ti.loop_config(serialize="
                              "True): each stage's loops over particles and pairs serial",
-                "kernel_args": "ndarrays + argpack, the tableau an ndarray, n a runtime i32 "
+                "arrays": arrays_setting("p"),
+                "kernel_args": "arrays + argpack, the tableau an ndarray, n a runtime i32 "
                                "(one kernel for every stepper and N: no recompilation)",
                 "compile": "cold JIT in this build" if self.cold else
                 "kernel already compiled in this process (launch time only)"}

@@ -16,6 +16,7 @@ from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.scene.flocking import flocking_of
 
+from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..sim import KernelSim
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4", "explicit_euler", "midpoint")
@@ -59,7 +60,6 @@ class FlockKernelSim(KernelSim):
 
     def __init__(self, scene, dt, integrator):
         from .. import flocking_kernels as fk
-        from ..kernel_store import to_ndarray
         from ..runtime import runtime
         rt = runtime()
         method, (a_next, b, stages) = method_of(get_integrator(integrator))
@@ -71,18 +71,17 @@ class FlockKernelSim(KernelSim):
         f = self.flocking
         # x, v: numpy arrays handed to the kernel (read and written in place: observing
         # them is a numpy copy, not a taichi-to-numpy transfer of ~1 ms a call)
-        self.x = np.ascontiguousarray(scene.positions, dtype=float).copy()
-        self.v = np.ascontiguousarray(scene.velocities, dtype=float).copy()
-        stage = {name: to_ndarray(np.zeros((n, 3))) for name in ("acc", "xs", "vs", "sx", "sv")}
+        self.x, self.v = to_ndarray(scene.positions), to_ndarray(scene.velocities)
+        stage = {name: to_taichi(np.zeros((n, 3))) for name in ("acc", "xs", "vs", "sx", "sv")}
         self.pack = fk.flock_t(rule=fk.RULES[f.rule], K=f.K, sigma2=f.sigma * f.sigma,
                                beta=f.beta, radius2=f.radius * f.radius, w_sep=f.separation,
                                w_align=f.alignment, w_coh=f.cohesion, **stage,
-                               rk_a=to_ndarray(a_next), rk_b=to_ndarray(b), stages=stages)
+                               rk_a=to_taichi(a_next), rk_b=to_taichi(b), stages=stages)
         super().__init__(dt, integrator, "", (self.x, self.v, self.pack))
         self.cold = cold  # one kernel for every stepper: cold only on the first build
 
     def _observe(self):
-        return {"x": self.x.copy(), "v": self.v.copy()}
+        return {"x": observed(self.x), "v": observed(self.v)}
 
     def settings(self):
         from ..runtime import THREADS, effective_config
@@ -99,8 +98,7 @@ class FlockKernelSim(KernelSim):
                 **effective_config(), "rule": f.rule, **rule,
                 "pairs": "all pairs, a serial loop over j per bird (no cut-off search)",
                 "time_loop": "time loop inside one kernel, ti.loop_config(serialize=True)",
-                "arrays": "x, v: numpy arrays handed to the kernel (external arrays, read "
-                          "and written in place); stage arrays: taichi ndarrays",
+                "arrays": arrays_setting("x", "v"),
                 "kernel": "one kernel for every stepper and rule (runtime codes, tableau "
                           "coefficients as arrays): compiled once per process",
                 "compile": "cold JIT in this build" if self.cold else

@@ -16,6 +16,7 @@ from refsim.engine import ModelGroup
 from refsim.models.nbody_gravity import GravitySystem
 from refsim.scene.gravity_pairs import gravity_pairs_of
 
+from ..kernel_store import observed, to_ndarray, to_taichi
 from ..sim import KernelSim
 
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4")
@@ -50,7 +51,6 @@ class GravitySim(KernelSim):
 
     def __init__(self, scene, dt, integrator):
         from .. import gravity_kernels as gk
-        from ..kernel_store import to_ndarray
         from .pivots import runtime_kernels
         bodies, self.pairs = scene.particles, gravity_pairs_of(scene)
         made = runtime_kernels()
@@ -59,14 +59,14 @@ class GravitySim(KernelSim):
         n = len(bodies)
         self.x = to_ndarray(np.array(bodies.position, float))
         self.v = to_ndarray(np.array(bodies.velocity, float))
-        scratch = [to_ndarray(np.zeros((n, 3))) for _ in range(5)]  # a, xs, vs, sx, sv
-        pack = gk.gravity_t(mass=to_ndarray(np.array(bodies.mass, float)), G=self.pairs.G,
+        scratch = [to_taichi(np.zeros((n, 3))) for _ in range(5)]  # a, xs, vs, sx, sv
+        pack = gk.gravity_t(mass=to_taichi(np.array(bodies.mass, float)), G=self.pairs.G,
                             eps2=self.pairs.softening ** 2)
         self.model = GravitySystem(bodies.mass, self.pairs.G, self.pairs.softening)
         super().__init__(dt, integrator, "", (self.x, self.v, *scratch, pack))
 
     def _observe(self):
-        x, v = self.x.to_numpy(), self.v.to_numpy()
+        x, v = observed(self.x), observed(self.v)
         inv = self.model.invariants(x.reshape(-1), v.reshape(-1))
         return {"x": x, "v": v, "energy": float(inv.pop("energy")), **inv}
 

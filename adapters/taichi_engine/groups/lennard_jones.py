@@ -15,7 +15,7 @@ import numpy as np
 from refsim.engine import ModelGroup
 from refsim.scene.lennard_jones import lennard_jones_of
 
-from ..kernel_store import to_ndarray
+from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..runtime import THREADS, effective_config
 from ..sim import KernelSim
 
@@ -28,8 +28,8 @@ NATIVE = {"velocity_verlet": "kernel: v += h/2 a; x += h v; a = a(x); v += h/2 a
 
 
 class LennardJonesSim(KernelSim):
-    """x, v as vec3 ndarrays; the part's parameters, stage arrays and grid in the `lj_t`
-    argpack; kernels made once per process and stepper."""
+    """x, v as (n, 3) numpy arrays (vec3 rows); the part's parameters, stage arrays and grid
+    in the `lj_t` argpack; kernels made once per process and stepper."""
 
     system = "lennard_jones"
 
@@ -58,18 +58,18 @@ class LennardJonesSim(KernelSim):
 
     def _arrays(self, n) -> dict:
         cells = CELLS_PER_PARTICLE * n + 64
-        self.nd = {name: to_ndarray(np.zeros((n, 3))) for name in ("acc", "xs", "vs", "sx",
-                                                                    "sv")}
-        self.nd.update(inv_mass=to_ndarray(1.0 / self.masses),
-                       cell_start=to_ndarray(np.zeros(cells, np.int32)),
-                       cell_end=to_ndarray(np.zeros(cells, np.int32)),
-                       cell_of=to_ndarray(np.zeros(n, np.int32)),
-                       order=to_ndarray(np.zeros(n, np.int32)),
-                       grid=to_ndarray(np.zeros(6)), dims=to_ndarray(np.zeros(3, np.int32)))
+        self.nd = {name: to_taichi(np.zeros((n, 3))) for name in ("acc", "xs", "vs", "sx",
+                                                                   "sv")}
+        self.nd.update(inv_mass=to_taichi(1.0 / self.masses),
+                       cell_start=to_taichi(np.zeros(cells, np.int32)),
+                       cell_end=to_taichi(np.zeros(cells, np.int32)),
+                       cell_of=to_taichi(np.zeros(n, np.int32)),
+                       order=to_taichi(np.zeros(n, np.int32)),
+                       grid=to_taichi(np.zeros(6)), dims=to_taichi(np.zeros(3, np.int32)))
         return self.nd
 
     def _observe(self):
-        x, v = self.x.to_numpy(), self.v.to_numpy()
+        x, v = observed(self.x), observed(self.v)
         return {"x": x, "v": v, "momentum": np.sum(self.masses[:, None] * v, axis=0)}
 
     def settings(self):
@@ -77,6 +77,7 @@ class LennardJonesSim(KernelSim):
         return {"integrator": {**self.stepper.describe(), "native": NATIVE[self.integrator]},
                 "dtype": "float64", "threads": THREADS, **effective_config(),
                 "time_loop": "time loop inside one kernel, ti.loop_config(serialize=True)",
+                "arrays": arrays_setting("x", "v"),
                 "compile": "cold JIT in this build" if self.cold else
                 "kernels already compiled in this process (launch time only)",
                 "per_step_python_call": "none (one launch per Sim.step(n) call)",

@@ -22,6 +22,7 @@ from refsim.engine import ModelGroup
 from refsim.models.rigid_pivot import pivot_inertia
 from refsim.scene.pivots import check_on_anchor, pivots_of
 
+from ..kernel_store import observed, to_ndarray, to_taichi
 from ..sim import KernelSim
 from .rigid import (
     FORMULATIONS,
@@ -29,7 +30,6 @@ from .rigid import (
     INTEGRATORS,
     ORIENTATION,
     ORIENTATION_DEFECT,
-    _ndarray,
     rotation_matrices,
 )
 
@@ -74,6 +74,7 @@ class PivotSim(KernelSim):
     """Pivoted bodies stepped by pivot_kernels; kernels made once per process and stepper."""
 
     system = "pivots"
+    host_arrays = ("q", "w", "norm_product")
 
     def __init__(self, scene, dt, integrator, formulation):
         from .. import pivot_kernels as pk
@@ -89,18 +90,19 @@ class PivotSim(KernelSim):
         made = runtime_kernels()
         if (self.system, integrator) not in made:
             made[(self.system, integrator)] = pk.pivot_kernels(integrator)
-        self.q = _ndarray(rk.vec4, body.orientation)
-        self.w = _ndarray(rk.vec3, body.angular_velocity)
-        self.norm_product = _ndarray(rk.f64, np.ones(len(body)))
-        pack = pk.pivot_t(inertia_pivot=_ndarray(rk.mat3, self.inertia_pivot),
-                          inertia_pivot_inv=_ndarray(rk.mat3, np.linalg.inv(self.inertia_pivot)),
-                          com_offset=_ndarray(rk.vec3, self.com_offset),
-                          weight=_ndarray(rk.vec3, self.weight),
+        self.q = to_ndarray(body.orientation)
+        self.w = to_ndarray(body.angular_velocity)
+        self.norm_product = to_ndarray(np.ones(len(body)))
+        pack = pk.pivot_t(inertia_pivot=to_taichi(self.inertia_pivot, rk.mat3),
+                          inertia_pivot_inv=to_taichi(np.linalg.inv(self.inertia_pivot),
+                                                      rk.mat3),
+                          com_offset=to_taichi(self.com_offset),
+                          weight=to_taichi(self.weight),
                           normalise=pk.FORMULATIONS.index(formulation))
         super().__init__(dt, integrator, "", (self.q, self.w, self.norm_product, pack))
 
     def _observe(self):
-        q, w = self.q.to_numpy(), self.w.to_numpy()
+        q, w = observed(self.q), observed(self.w)
         rotation = rotation_matrices(q)
         arm = np.einsum("nij,nj->ni", rotation, self.com_offset)
         x = self.anchor + arm
@@ -110,7 +112,7 @@ class PivotSim(KernelSim):
         if self.formulation == "quat_exp":
             defect = np.einsum("ni,ni->n", q, q) - 1.0
         else:
-            defect = self.norm_product.to_numpy() - 1.0
+            defect = self.norm_product - 1.0
         energy = 0.5 * np.einsum("ni,ni->", w, momentum) - np.sum(self.weight * x)
         return {"x": x, "v": np.cross(w, arm), "q": q, "w": w, "orientation_defect": defect,
                 "energy": float(energy), "angular_momentum": momentum,

@@ -20,6 +20,7 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 
+from ..kernel_store import observed, to_ndarray, to_taichi
 from ..runtime import runtime
 from ..sim import KernelSim
 
@@ -82,17 +83,11 @@ def world_momentum(inertia0, q, w) -> np.ndarray:
     return np.einsum("nij,nj->ni", R, np.einsum("nij,nj->ni", inertia0, w_body))
 
 
-def _ndarray(dtype, arr):
-    from ..kernel_types import ti
-    out = ti.ndarray(dtype, arr.shape[0])
-    out.from_numpy(np.ascontiguousarray(arr, float))
-    return out
-
-
 class RigidSim(KernelSim):
     """Rigid bodies stepped by rigid_kernels; kernels made once per process and stepper."""
 
     system = "rigid"
+    host_arrays = ("x", "v", "q", "w", "norm_product")
 
     def __init__(self, scene, dt, integrator, formulation):
         from .. import rigid_kernels as rk
@@ -102,26 +97,25 @@ class RigidSim(KernelSim):
         if (self.system, integrator) not in made:  # runtime's cache, keyed as its own kernels
             made[(self.system, integrator)] = rk.rigid_kernels(integrator)
         n = len(body)
-        self.x, self.v, self.w = (_ndarray(rk.vec3, a) for a in
+        self.x, self.v, self.w = (to_ndarray(a) for a in
                                   (body.position, body.velocity, body.angular_velocity))
-        self.q = _ndarray(rk.vec4, body.orientation)
-        self.norm_product = _ndarray(rk.f64, np.ones(n))
-        pack = rk.rigid_t(inertia0=_ndarray(rk.mat3, body.inertia),
-                          inertia0_inv=_ndarray(rk.mat3, np.linalg.inv(body.inertia)),
+        self.q = to_ndarray(body.orientation)  # (n, 4): vec4 rows
+        self.norm_product = to_ndarray(np.ones(n))
+        pack = rk.rigid_t(inertia0=to_taichi(body.inertia, rk.mat3),
+                          inertia0_inv=to_taichi(np.linalg.inv(body.inertia), rk.mat3),
                           gravity=rk.vec3(*scene.gravity),
                           normalise=rk.FORMULATIONS.index(formulation))
         super().__init__(dt, integrator, "", (self.x, self.v, self.q, self.w,
                                               self.norm_product, pack))
 
     def _observe(self):
-        x, v = self.x.to_numpy(), self.v.to_numpy()
-        q, w = self.q.to_numpy(), self.w.to_numpy()
+        x, v, q, w = (observed(a) for a in (self.x, self.v, self.q, self.w))
         body = self.body
         L = world_momentum(body.inertia, q, w)
         if self.formulation == "quat_exp":
             defect = np.einsum("ni,ni->n", q, q) - 1.0
         else:
-            defect = self.norm_product.to_numpy() - 1.0
+            defect = self.norm_product - 1.0
         energy = (0.5 * body.mass * np.einsum("ni,ni->n", v, v)
                   + 0.5 * np.einsum("ni,ni->n", w, L) - body.mass * (x @ np.asarray(
                       self.scene.gravity, float)))
