@@ -7,6 +7,7 @@ import numpy as np
 
 from .forces import SpringSet, drag_jacobian_v
 from .joints import RodSet
+from .one_spring import OneSpringAccel
 
 
 class ParticleSystem:
@@ -25,6 +26,8 @@ class ParticleSystem:
         self.velocity_dependent = bool(
             self.drag > 0 or rods is not None or (springs is not None and springs.damping.any()))
         self.linear = rods is None and (springs is None or springs.linear)
+        self.one_spring = (OneSpringAccel(springs, self.inv_m[0, 0], self.gravity, self.drag)
+                           if OneSpringAccel.applies(springs, self.nbody, rods) else None)
 
     def stages(self) -> list[str]:
         out = ["gravity"] if self.has_gravity else []
@@ -44,6 +47,8 @@ class ParticleSystem:
         return f
 
     def accel(self, t, x, v):
+        if self.one_spring is not None and x.ndim == 1:  # one body, one spring: floats
+            return self.one_spring(x, v)
         if self.springs is None and self.rods is None and self.drag == 0 and x.ndim == 1:
             return self.g_flat  # gravity alone on one instance: a constant (free fall)
         shape = x.shape[:-1] + (self.nbody, 3)
