@@ -7,6 +7,7 @@ import numpy as np
 
 from .forces import SpringSet, drag_jacobian_v
 from .joints import RodSet
+from .one_rod import OneRodAccel
 from .one_spring import OneSpringAccel
 
 
@@ -28,6 +29,8 @@ class ParticleSystem:
         self.linear = rods is None and (springs is None or springs.linear)
         self.one_spring = (OneSpringAccel(springs, self.inv_m[0, 0], self.gravity, self.drag)
                            if OneSpringAccel.applies(springs, self.nbody, rods) else None)
+        if OneRodAccel.applies(springs, self.nbody, rods):  # the same hook: a float path
+            self.one_spring = OneRodAccel(rods, self.masses[0], self.weight[0], self.drag)
 
     def stages(self) -> list[str]:
         out = ["gravity"] if self.has_gravity else []

@@ -1,10 +1,12 @@
-"""The float path of one body on one spring (refsim/models/one_spring.py) gives the numpy
-path's doubles bit for bit: random springs (stiff and soft, with and without rest length,
-damping, drag and gravity), a body on its anchor (|d| = 0), and the batch path unchanged."""
+"""The float paths of one body on one spring or one KKT rod (refsim/models/one_spring.py,
+one_rod.py) give the numpy path's doubles bit for bit: random springs (stiff and soft, with and
+without rest length, damping, drag and gravity), a body on its anchor (|d| = 0), random rods
+off their length, and the batch path unchanged."""
 import numpy as np
 import pytest
 
 from refsim.models.forces import SpringSet
+from refsim.models.joints import RodSet
 from refsim.models.system import ParticleSystem
 from refsim.scene import Spring
 
@@ -40,3 +42,19 @@ def test_batches_and_two_springs_keep_the_numpy_path():
     two = SpringSet.from_scene([Spring(body=0, stiffness=1.0, rest_length=0.0),
                                 Spring(body=0, stiffness=2.0, rest_length=0.0)])
     assert ParticleSystem([1.0], (0, 0, 0), springs=two).one_spring is None
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_rod_float_path_equals_numpy_path_bit_for_bit(seed):
+    rng = np.random.default_rng(100 + seed)
+    for trial in range(500):
+        anchor = rng.normal(size=(1, 3))
+        rods = RodSet(body=np.array([0]), anchor=anchor, length=rng.uniform(0.5, 2, 1),
+                      baumgarte=rng.uniform(0, 50))
+        system = ParticleSystem([rng.uniform(0.1, 3)], rng.normal(size=3) * 9.81,
+                                drag=rng.uniform(0, 1) * (trial % 3 == 0), rods=rods)
+        assert system.one_spring is not None
+        x, v = anchor[0] + rng.normal(size=3), rng.normal(size=3)
+        fast = system.accel(0.0, x, v)
+        system.one_spring = None
+        assert np.array_equal(fast, system.accel(0.0, x, v))
