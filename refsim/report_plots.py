@@ -70,6 +70,9 @@ def work_precision(rows, err_col, units, path: Path, title: str, style=None, flo
     floor = rs.floor_of(floor, timed[err_col])
     facets = rs.panels(series)
     fig, axes = rs.grid_figure(1 + len(facets))
+    for ax in axes:  # log scales first: setting a scale resets the axis's ticks and labels,
+        ax.set_xscale("log")  # which finish_axes sets
+        ax.set_yscale("log")
     _fronts_panel(axes[0], series, err_col, floor, style)
     rs.finish_axes(axes[0], "Pareto fronts")
     for ax, (name, members) in zip(axes[1:], facets):
@@ -79,8 +82,6 @@ def work_precision(rows, err_col, units, path: Path, title: str, style=None, flo
                     **style.line_kwargs(engine, integrator))
         rs.finish_axes(ax, name)
     for ax in axes:
-        ax.set_xscale("log")
-        ax.set_yscale("log")
         rs.draw_band(ax, floor, "x")
         ax.set_xlabel(f"{err_col} ({units})", fontsize=7)
         ax.set_ylabel("run time to t_end (s)", fontsize=7)
