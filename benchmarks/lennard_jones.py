@@ -65,7 +65,8 @@ def taichi_eval(x, side, repeats):
         advance_lj(sim.x, sim.v, sim.pack, 0.0, 1, START)  # one evaluation a(x)
         ti.sync()
         elapsed = min(elapsed, time.perf_counter() - t0)
-    forces = sim.nd["acc"].to_numpy()[:, :2]  # m = 1
+    acc = sim.nd["acc"]  # a taichi ndarray (kernel scratch) or a numpy array
+    forces = np.asarray(acc.to_numpy() if hasattr(acc, "to_numpy") else acc)[:, :2]  # m = 1
     sim.close()
     return elapsed, forces
 
