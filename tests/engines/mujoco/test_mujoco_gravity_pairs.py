@@ -11,91 +11,38 @@ falls at order 2 (measured 2.00), hiding the method's order.
 Figure-eight: Chenciner-Montgomery (MODELS.md 6), G = m = 1, period 6.32591398.
 mujoco is imported on purpose: CI must have every engine (fail, never skip).
 """
+import gravity_scenes
 import mujoco  # fail, never skip, without the engine
 import numpy as np
 import pytest
+from gravity_scenes import (  # noqa: F401
+    EIGHT_PERIOD,
+    EPS,
+    ORDER_SLACK,
+    TWO_PI,
+    PairSystem,
+    angular_momentum,
+    energy,
+    figure_eight,
+    fitted_orders,
+    in_house,
+    kepler,
+)
 
 from refsim.engine import IntegratorInfo
-from refsim.integrators import get_integrator
-from refsim.models.nbody_gravity import pair_accelerations, potential_energy
 from refsim.registry import get_engine
-from refsim.scene import Scene
-from refsim.scene.gravity_pairs import GravityPairs
-from refsim.scene.particles import Particles
 
 ENGINE = get_engine("mujoco")
-EPS = np.finfo(float).eps
-TWO_PI = 2.0 * np.pi
-EIGHT_PERIOD = 6.32591398
-ORDER_SLACK = 0.3  # fitted order vs nominal on a clean asymptotic range (the brief's +-0.3)
-
-
-def kepler(e, masses=(0.75, 0.25), anomaly=np.pi / 2):
-    """Two bodies on a Kepler orbit of eccentricity e, a = 1, G = 1, centre of mass at rest at
-    the origin, in the x-y plane; relative state at true anomaly `anomaly`."""
-    m = np.array(masses, float)
-    M, p = m.sum(), 1.0 - e * e
-    r = p / (1.0 + e * np.cos(anomaly))
-    rel_x = r * np.array([np.cos(anomaly), np.sin(anomaly), 0.0])
-    rel_v = np.sqrt(M / p) * np.array([-np.sin(anomaly), e + np.cos(anomaly), 0.0])
-    x = np.array([-m[1] / M * rel_x, m[0] / M * rel_x])
-    v = np.array([-m[1] / M * rel_v, m[0] / M * rel_v])
-    return Scene(bodies=Particles(m, x, v), extra=(GravityPairs(G=1.0, softening=0.0),))
-
-
-def figure_eight():
-    x1 = np.array([0.97000436, -0.24308753, 0.0])
-    v3 = np.array([-0.93240737, -0.86473146, 0.0])
-    return Scene(bodies=Particles(np.ones(3), [x1, -x1, np.zeros(3)], [-v3 / 2, -v3 / 2, v3]),
-                 extra=(GravityPairs(G=1.0, softening=0.0),))
-
-
-class PairSystem:
-    """The in-house steppers' system for the same kernel (flat state, as refsim's engine)."""
-
-    velocity_dependent, linear = False, False
-
-    def __init__(self, masses):
-        self.masses = np.asarray(masses, float)
-
-    def accel(self, t, x, v):
-        return pair_accelerations(x.reshape(-1, 3), self.masses).reshape(x.shape)
-
-
-def in_house(scene, integrator, dt, steps):
-    stepper, system = get_integrator(integrator), PairSystem(scene.masses)
-    state = stepper.start(system, 0.0, scene.positions.ravel().copy(),
-                          scene.velocities.ravel().copy(), dt)
-    _, state = stepper.advance(system, 0.0, state, dt, steps)
-    x, v = stepper.output(system, steps * dt, state, dt)
-    return x.reshape(-1, 3), v.reshape(-1, 3)
 
 
 def run(scene, integrator, variant, period, steps):
-    sim = ENGINE.build(scene, period / steps, integrator, variant)
-    sim.step(steps)
-    assert sim.failure is None
-    return sim.observe()
+    return gravity_scenes.run(ENGINE, scene, integrator, variant, period, steps)
 
 
 def return_error(scene, integrator, variant, period, steps):
-    """max |x(T) - x(0)|: the exact orbit returns to its start after one period."""
-    return np.abs(run(scene, integrator, variant, period, steps)["x"] - scene.positions).max()
+    return gravity_scenes.return_error(ENGINE, scene, integrator, variant, period, steps)
 
 
-def fitted_orders(errors):
-    return np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
-
-
-def energy(obs, m):
-    return 0.5 * np.sum(m * np.sum(obs["v"] ** 2, axis=1)) + potential_energy(obs["x"], m)
-
-
-def angular_momentum(obs, m):
-    return np.sum(m[:, None] * np.cross(obs["x"], obs["v"]), axis=0)
-
-
-# -- group, formulations, settings ---------------------------------------------------------------
 def test_group_claims_gravity_scenes_and_names_its_formulations():
     scene = kepler(0.5)
     assert ENGINE.group_for(scene).name == "gravity_pairs"
