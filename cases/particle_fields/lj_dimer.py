@@ -182,7 +182,8 @@ class LJDimer(Case):
     def order_dts(self, p):
         """Finer accuracy-only steps, so that the order fit spans a decade of dt above the
         error floor (RK4 at A = 0.01 sigma stays 1e3 above it at T/160)."""
-        return [2.0 * math.pi / self.omega0(p) / 160]
+        period = 2.0 * math.pi / self.omega0(p)
+        return [period / 160, period / 200]  # T/20 .. T/200: a decade
 
     def reference_dt(self, p):
         return self.dts(p)[-1]
