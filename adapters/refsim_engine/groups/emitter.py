@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from adapters.common.particle_fields import PRINTED
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.models import emitter as em
@@ -22,11 +23,6 @@ from refsim.scene.emitter import FREE_SLOT_VALUE, emitter_of
 
 INTEGRATORS = ("explicit_euler", "symplectic_euler", "symplectic_euler_dk", "midpoint", "heun",
                "rk2", "rk4", "dopri5", "stormer_verlet", "velocity_verlet", "leapfrog")
-PRINTED = ("as printed (slide 002): k = per_step particles generated every step (rate k/h), "
-           "`velocity == g*dt` a comparison: no acceleration, straight lines; lifetime removal "
-           "added (the slide removes nothing)")
-
-
 class EmitterSim(Sim):
     def __init__(self, scene, dt, stepper, formulation):
         self.dt, self.stepper, self.formulation = float(dt), stepper, formulation

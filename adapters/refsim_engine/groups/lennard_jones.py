@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from adapters.common.particle_fields import supports_scene
 from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.models.lennard_jones import LennardJonesModel, LennardJonesSystem
@@ -56,18 +57,6 @@ class LennardJonesSim(SteppedSim):
 def claims(scene) -> bool:
     """Particles and a LennardJones part, nothing else."""
     return scene.part_kinds() == {"particles", "lennard_jones"} and scene.contact is None
-
-
-def supports_scene(scene, engine_name):
-    """None, or why the scene's LennardJones setting cannot run (shared with taichi)."""
-    part = lennard_jones_of(scene)
-    if part.box is not None and len(part.box) != scene.dim:
-        return (f"{engine_name} lennard_jones: box has {len(part.box)} lengths, the scene is "
-                f"{scene.dim}D (one length per axis)")
-    if scene.dim == 2 and not (np.all(scene.positions[:, 2] == 0)
-                               and np.all(scene.velocities[:, 2] == 0)):
-        return f"{engine_name} lennard_jones: a 2D scene moves in the plane z = 0 (z, v_z = 0)"
-    return None
 
 
 def _supports(engine, scene, integrator):

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from adapters.refsim_engine.groups.emitter import PRINTED
+from adapters.common.particle_fields import PRINTED
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.models import emitter as em

@@ -15,10 +15,15 @@ import time
 
 import numpy as np
 
-from adapters.refsim_engine.groups.first_order_fields import (FIELD_INTEGRATORS, OFFERED,
-                                                              SAMPLING_INTEGRATORS,
-                                                              first_order_reason, make_system,
-                                                              model_text, scene_reason)
+from adapters.common.first_order import (
+    FIELD_INTEGRATORS,
+    OFFERED,
+    SAMPLING_INTEGRATORS,
+    first_order_reason,
+    make_system,
+    model_text,
+    scene_reason,
+)
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators.first_order import get_first_order
 from refsim.scene.surface_sampling import surface_sampling_of

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from adapters.common.particle_fields import supports_scene
 from refsim.engine import ModelGroup
 from refsim.scene.lennard_jones import lennard_jones_of
 
@@ -98,7 +99,6 @@ def claims(scene) -> bool:
 
 
 def supports(engine, scene, integrator):
-    from adapters.refsim_engine.groups.lennard_jones import supports_scene
     return supports_scene(scene, "taichi")
 
 

@@ -4,7 +4,7 @@ variants; and the polyhedron reached through the harness."""
 import numpy as np
 import pytest
 
-from adapters.refsim_engine.groups.first_order_fields import SAMPLING_INTEGRATORS
+from adapters.common.first_order import SAMPLING_INTEGRATORS
 from cases.particle_fields.sphere_sampling import CASE
 from refsim.integrators.first_order import get_first_order
 from refsim.job import Job, run_job
