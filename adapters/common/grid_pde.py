@@ -1,0 +1,77 @@
+"""What the engines' finite-difference groups share (refsim and taichi run the same schemes on
+the same `Grid` parts): which scenes they claim, the steppers offered per PDE, and the reasons
+a stepper or a scene is refused."""
+from __future__ import annotations
+
+from refsim.integrators import INTEGRATORS
+from refsim.models.grid_pde import MODELS, coefficient_reason
+
+# heat equation u' = D lap u (first order): FTCS is explicit Euler; RK tableaux on the method
+# of lines; the theta-methods by a sparse solve
+DIFFUSION_INTEGRATORS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler",
+                         "crank_nicolson")
+# wave equation u'' = c^2 lap u (second order): Stormer-Verlet is the three-level leapfrog
+# u^{n+1} = 2 u^n - u^{n-1} + h^2 c^2 lap u^n; velocity Verlet gives the same u sequence
+WAVE_INTEGRATORS = ("stormer_verlet", "velocity_verlet", "symplectic_euler", "rk4",
+                    "implicit_euler", "implicit_midpoint")
+OFFERED = tuple(dict.fromkeys(DIFFUSION_INTEGRATORS + WAVE_INTEGRATORS))
+FIRST_ORDER_IMPLICIT = ("implicit_euler", "crank_nicolson")
+SECOND_ORDER_IMPLICIT = ("implicit_euler", "implicit_midpoint")
+
+
+def claims(scene) -> bool:
+    """One grid carrying the heat or the wave equation, and nothing else that moves."""
+    return bool(scene.grids) and any(g.model in MODELS for g in scene.grids)
+
+
+def scene_reason(scene, who: str) -> str | None:
+    """Reasons a grid scene is refused whatever the stepper."""
+    if len(scene.grids) != 1:
+        return f"{who} finite differences: one grid per scene, got {len(scene.grids)}"
+    if scene.part_kinds() != {"grids"}:
+        others = sorted(scene.part_kinds() - {"grids"})
+        return f"{who} finite differences: a grid alone, got also {', '.join(others)}"
+    grid = scene.grids[0]
+    reason = coefficient_reason(grid)
+    if reason:
+        return f"{who} finite differences: {reason}"
+    if grid.model == "diffusion" and len(grid.fields) != 1:
+        return f"{who} heat equation: one field (u), got {sorted(grid.fields)}"
+    if grid.model == "wave" and ("u" not in grid.fields or set(grid.fields) - {"u", "v"}):
+        return f"{who} wave equation: fields u and optionally v, got {sorted(grid.fields)}"
+    return None
+
+
+def offered_for(grid) -> tuple:
+    return DIFFUSION_INTEGRATORS if grid.model == "diffusion" else WAVE_INTEGRATORS
+
+
+def integrator_reason(grid, integrator: str | None) -> str | None:
+    if integrator is None:
+        return None
+    name = integrator.partition(":")[0]
+    offered = offered_for(grid)
+    if name in offered and name == integrator:
+        return None
+    if grid.model == "diffusion" and name in INTEGRATORS:
+        return (f"heat equation u' = D lap u is first order: {integrator!r} steps second-order "
+                f"systems; offered here: {list(offered)}")
+    if grid.model == "wave" and name == "crank_nicolson":
+        return ("wave equation: Crank-Nicolson is offered as implicit_midpoint (the "
+                "trapezoidal rule on (u, v)); offered here: " + str(list(offered)))
+    return f"{grid.model} grids: integrator must be one of {list(offered)}, got {integrator!r}"
+
+
+def fields_of(grid):
+    """(u, v) initial arrays (v None for diffusion; zeros when a wave grid has no v)."""
+    import numpy as np
+    u = np.array(grid.fields["u"] if "u" in grid.fields else next(iter(grid.fields.values())),
+                 float)
+    if grid.model != "wave":
+        return u, None
+    v = np.array(grid.fields["v"], float) if "v" in grid.fields else np.zeros_like(u)
+    return u, v
+
+
+def field_name(grid) -> str:
+    return "u" if "u" in grid.fields else next(iter(grid.fields))
