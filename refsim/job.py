@@ -242,7 +242,8 @@ def _state_failure(sim, o):
     """The engine's own failure, or a non-finite state at observation `o`; None when neither."""
     if sim.failure:
         return sim.failure
-    if not (np.isfinite(o["x"]).all() and np.isfinite(o["v"]).all()):
+    state = [name for name in o if name in ("x", "v") or name.startswith("grid.")]
+    if not all(np.isfinite(o[name]).all() for name in state):
         return "non-finite state"
     return None
 

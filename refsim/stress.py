@@ -69,6 +69,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--case", default=None,
                         help="a case that declares its stability parameter (`stability(p)`); "
                              "default: the stability-probe case, with the stiffness sweep")
+    parser.add_argument("--variant", default=None,
+                        help="the --case variant searched (default: the one its stability "
+                             "spec names, else its first)")
     parser.add_argument("--engine", action="append",
                         help="engine (repeatable; default: every available engine)")
     parser.add_argument("--integrator", action="append",
@@ -105,7 +108,7 @@ def main(args) -> int:
 def options(args) -> dict:
     """Validated options; ValueError naming the parameter and its valid range otherwise."""
     quick = bool(getattr(args, "quick", False))
-    probe, is_default = _probe(getattr(args, "case", None))
+    probe, is_default = _probe(getattr(args, "case", None), getattr(args, "variant", None))
     engines = _engines(getattr(args, "engine", None))
     spec = probe.spec
     periods = _periods(getattr(args, "periods", None),
@@ -119,13 +122,14 @@ def options(args) -> dict:
             "out": Path(getattr(args, "out", None) or store.DEFAULT_ROOT)}
 
 
-def _probe(name):
+def _probe(name, variant=None):
     """(Probe of the case, whether it is the default probe case); ValueError for a case that
-    is not registered or declares no stability parameter."""
+    is not registered or declares no stability parameter, or a variant it does not have."""
     from refsim.registry import case_names, get_case
     from refsim.stress_search import probe_case
     default = probe_case()
-    if name is None or name == default.name:
+    name = default.name if name is None else name
+    if name == default.name and variant is None:
         return Probe(default), True
     known = case_names()
     if name not in known:
@@ -135,7 +139,10 @@ def _probe(name):
         able = [n for n in known if callable(getattr(get_case(n), "stability", None))]
         raise ValueError(f"--case {name!r} declares no stability parameter (no "
                          f"`stability(p)`); cases that do: {able}")
-    return Probe(case), False
+    if variant is not None and variant not in case.variants:
+        raise ValueError(f"--variant must be one of {list(case.variants)} for {name!r}, got "
+                         f"{variant!r}")
+    return Probe(case, variant=variant), False
 
 
 def criterion(spec, periods) -> Criterion:
@@ -173,6 +180,8 @@ def _integrators(names, engines):
         return None
     from refsim.registry import get_engine
     offered = list(dict.fromkeys(i for e in engines for i in get_engine(e).integrators))
+    offered += [i for e in engines for g in get_engine(e).model_groups()
+                for i in g.integrators or () if i not in offered]
     for name in names:
         if name.partition(":")[0] not in offered:
             raise ValueError(f"--integrator must be one offered by {engines}: {offered}; "
@@ -214,7 +223,8 @@ def manifest(opts) -> dict:
                             int(threads) if threads.isdigit() else 1)
     return {"run_id": store.new_run_id(), "kind": "stress", "command": command(opts),
             "argv": sys.argv, "criterion": opts["criterion"].text(),
-            "options": {"case": opts["case"], "engines": opts["engines"],
+            "options": {"case": opts["case"], "variant": opts["probe"].variant,
+                        "engines": opts["engines"],
                         "integrators": opts["integrators"],
                         "periods": opts["criterion"].periods, "tol": opts["tol"],
                         "sweep_dt": opts["dt"], "sweep_k": list(SWEEP_K),
@@ -224,6 +234,7 @@ def manifest(opts) -> dict:
 
 def command(opts) -> str:
     parts = ["refsim", "stress"] + ([] if opts["sweep"] else ["--case", opts["case"]])
+    parts += ["--variant", opts["probe"].variant] if not opts["sweep"] else []
     for e in opts["engines"]:
         parts += ["--engine", e]
     for i in opts["integrators"] or []:
@@ -245,8 +256,9 @@ def limit_jobs(opts, spring) -> tuple[list, list]:
     for name in opts["engines"]:
         engine = get_engine(name)
         forms = engine.formulations(spring.scene) if spring.spec.formulations else ("",)
-        for integ in opts["integrators"] or engine.integrators:
-            if integ.partition(":")[0] not in engine.integrators:
+        offered = engine.offered_integrators(spring.scene)
+        for integ in opts["integrators"] or offered:
+            if integ.partition(":")[0] not in offered:
                 continue
             eq = refsim_equivalent(engine, integ)
             why = "adaptive" if eq and get_integrator(eq).adaptive else \

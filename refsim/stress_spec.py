@@ -101,12 +101,13 @@ def integrator_family(settings) -> str:
 class Probe:
     """A case at its stability parameters: scene, spec, and the criterion's energy test."""
 
-    def __init__(self, case=None, **overrides):
+    def __init__(self, case=None, variant=None, **overrides):
+        """`variant`: the case variant searched (None: the spec's, else the first)."""
         from refsim.stress_search import probe_case
         self.case = case if case is not None else probe_case()
-        first = next(iter(self.case.variants))
+        first = variant or next(iter(self.case.variants))
         declared = self.case.stability(self.case.variant_params(first))
-        self.variant = declared.variant or first
+        self.variant = variant or declared.variant or first
         self.overrides = {**declared.params, **overrides}
         self.p = self.case.variant_params(self.variant, self.overrides)
         self.spec = self.case.stability(self.p)

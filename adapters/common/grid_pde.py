@@ -16,6 +16,7 @@ WAVE_INTEGRATORS = ("stormer_verlet", "velocity_verlet", "symplectic_euler", "rk
                     "implicit_euler", "implicit_midpoint")
 OFFERED = tuple(dict.fromkeys(DIFFUSION_INTEGRATORS + WAVE_INTEGRATORS))
 FIRST_ORDER_IMPLICIT = ("implicit_euler", "crank_nicolson")
+FIRST_ORDER_SPARSE = ("explicit_euler",) + FIRST_ORDER_IMPLICIT  # sparse_linear.ThetaMethod
 SECOND_ORDER_IMPLICIT = ("implicit_euler", "implicit_midpoint")
 
 

@@ -5,6 +5,7 @@ grids): the matrix of each step is factorised once per (system, h) by scipy.spar
 
 First-order u' = A u (the heat equation A = D L), theta-methods (FirstOrderStepper contract of
 `refsim.integrators.first_order`):
+    explicit_euler   u1 = (I + h A) u0: FTCS, one sparse product with the matrix built once
     implicit_euler   (I - h A) u1 = u0                         R(z) = 1 / (1 - z)
     crank_nicolson   (I - h/2 A) u1 = (I + h/2 A) u0             R(z) = (1 + z/2) / (1 - z/2)
 Second-order u'' = A u, state (x, v) (Integrator contract of `refsim.integrators.base`):
@@ -41,18 +42,34 @@ class _Factorised:
         return self._lu
 
 
+class _UpdateMatrix:
+    """I + h A (CSR), cached per (system, h): the explicit step as one product."""
+
+    def __init__(self):
+        self._key, self._matrix = None, None
+
+    def matrix(self, system, h):
+        key = (id(system), float(h))
+        if key != self._key:
+            a = system.matrix()
+            self._matrix = (sp.identity(a.shape[0], format="csr") + h * a).tocsr()
+            self._key = key
+        return self._matrix
+
+
 class ThetaMethod(FirstOrderStepper):
     """u1 - u0 = h A (theta u1 + (1 - theta) u0): theta 1 implicit Euler, 1/2 Crank-Nicolson."""
 
-    explicit = False
-
     def __init__(self, name: str, theta: float, order: int, family: str):
         self.name, self.theta, self.order, self.family = name, float(theta), order, family
-        self._lu = _Factorised()
+        self.explicit = self.theta == 0.0
+        self._lu, self._update = _Factorised(), _UpdateMatrix()
 
     def step(self, field, t, p, h):
-        lu = self._lu.solver(field, self.theta * h)
         shape, flat = np.shape(p), np.reshape(p, -1)
+        if self.theta == 0.0:
+            return (self._update.matrix(field, h) @ flat).reshape(shape)
+        lu = self._lu.solver(field, self.theta * h)
         if self.theta != 1.0:
             flat = flat + ((1.0 - self.theta) * h) * (field.matrix() @ flat)
         return lu.solve(flat).reshape(shape)
@@ -68,13 +85,16 @@ class ThetaMethod(FirstOrderStepper):
 
 
 def first_order_implicit(name: str) -> ThetaMethod:
+    if name == "explicit_euler":
+        return ThetaMethod("explicit_euler", 0.0, 1, "explicit Euler (FTCS: u1 = (I + h A) u0, "
+                                                     "one sparse product)")
     if name == "implicit_euler":
         return ThetaMethod("implicit_euler", 1.0, 1, "implicit Euler (sparse LU)")
     if name == "crank_nicolson":
         return ThetaMethod("crank_nicolson", 0.5, 2, "implicit trapezoidal (Crank-Nicolson, "
                                                       "sparse LU)")
-    raise ValueError(f"sparse first-order stepper must be implicit_euler or crank_nicolson, "
-                     f"got {name!r}")
+    raise ValueError(f"sparse first-order stepper must be explicit_euler, implicit_euler or "
+                     f"crank_nicolson, got {name!r}")
 
 
 class SparseImplicitEuler(Integrator):

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapters.common.grid_pde import (FIRST_ORDER_IMPLICIT, OFFERED, SECOND_ORDER_IMPLICIT,
+from adapters.common.grid_pde import (FIRST_ORDER_SPARSE, OFFERED, SECOND_ORDER_IMPLICIT,
                                       claims, field_name, fields_of, integrator_reason,
                                       scene_reason)
 from refsim.engine import ModelGroup, Sim
@@ -37,7 +37,7 @@ class HeatSim(Sim):
     def __init__(self, grid, dt, integrator):
         self.dt, self.grid = float(dt), grid
         self.system = GridPDE(grid)
-        self.stepper = first_order_implicit(integrator) if integrator in FIRST_ORDER_IMPLICIT \
+        self.stepper = first_order_implicit(integrator) if integrator in FIRST_ORDER_SPARSE \
             else get_first_order(integrator)
         self.name = field_name(grid)
         self.u, _ = fields_of(grid)
