@@ -54,7 +54,7 @@ class HeatMode(Case):
     variants = {"2d": {}, "1d": {"dim": 1}, "3d": {"dim": 3, "cells": 16},
                 "neumann": {"boundary": "neumann"}, "periodic": {"boundary": "periodic"},
                 "fine_1d": {"dim": 1, "cells": 256}}
-    default_variants = ("2d",)
+    default_variants = quick_variants = ("2d",)
 
     def grid(self, p) -> ModeGrid:
         return ModeGrid(p)

@@ -81,7 +81,7 @@ class WaveMode(Case):
     }
     variants = {"1d": {}, "2d": {"dim": 2}, "3d": {"dim": 3, "cells": 16},
                 "long_1d": {"periods": 100.0}}
-    default_variants = ("1d",)
+    default_variants = quick_variants = ("1d",)
 
     def grid(self, p) -> ModeGrid:
         return ModeGrid(p)
