@@ -76,3 +76,13 @@ def fields_of(grid):
 
 def field_name(grid) -> str:
     return "u" if "u" in grid.fields else next(iter(grid.fields))
+
+
+def grid_refusal(engine: str, what: str):
+    """A group for an engine without a grid/PDE solver: it claims every grid scene (heat, wave,
+    Poisson) only to refuse it with the reason (adapters/common/refusing_group.py)."""
+    from adapters.common.refusing_group import refusing_group
+    return refusing_group(
+        f"{engine} has no finite-difference grid solver ({what}); the heat, wave and Poisson "
+        "grids run on refsim and taichi", name="grid_refused",
+        claims=lambda scene: bool(scene.grids))
