@@ -21,22 +21,26 @@ Multigrid pieces (vertex-centred: level l+1 holds every other point of level l, 
   1/2 for each of the two corners where I_k is odd.
 Reductions (dot products) are returned by the kernels (taichi's reduction of a scalar in a
 parallel loop: on one thread a serial sum in index order, reproducible).
+Drivers (Python loops over CG iterations and multigrid levels only, every grid operation a
+kernel): `PoissonSolver` (CG, or CG with z = M r by `Multigrid`, one cycle per iteration) and
+`Multigrid` (V or W cycle on the level arrays; level 0's right-hand side is CG's r and its
+correction CG's z, so the cycle copies nothing).
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """
 import math
 
 from .kernel_types import f64, ti
-
-_MADE: dict = {}
+from .runtime import runtime
 
 
 def poisson_kernels(d: int) -> dict:
     """The kernels for d = 2 or 3 (made once per process; taichi compiles them on first use)."""
     if d not in (2, 3):
         raise ValueError(f"poisson kernels: d must be 2 or 3, got {d}")
-    if d not in _MADE:
-        _MADE[d] = _make(d)
-    return _MADE[d]
+    made = runtime()["kernels"]  # the runtime's per-process cache, as kernel_store's kernels
+    if ("grid_poisson", d) not in made:
+        made[("grid_poisson", d)] = _make(d)
+    return made[("grid_poisson", d)]
 
 
 def _make(d: int) -> dict:
@@ -81,16 +85,6 @@ def _stencil_funcs(d: int) -> dict:
 # (serial); every kernel below spells it out (taichi needs the loop header inside the kernel).
 def _cg_kernels(d: int, grid_t, weights_t, stencil) -> dict:
     point, minus_laplacian = stencil["point"], stencil["minus_laplacian"]
-
-    @ti.kernel
-    def interior_norm2(a: grid_t) -> f64:
-        total = 0.0
-        for O in ti.grouped(ti.ndrange(*[(1, a.shape[k] - 1) for k in ti.static(range(d - 1))])):
-            row = 0.0
-            for j in range(1, a.shape[d - 1] - 1):
-                row += a[point(O, j)] ** 2
-            total += row
-        return total
 
     @ti.kernel
     def dot(a: grid_t, b: grid_t) -> f64:
@@ -150,7 +144,7 @@ def _cg_kernels(d: int, grid_t, weights_t, stencil) -> dict:
                 I = point(O, j)
                 p[I] = z[I] + beta * p[I]
 
-    return {"interior_norm2": interior_norm2, "dot": dot, "start_residual": start_residual,
+    return {"dot": dot, "start_residual": start_residual,
             "apply_dot": apply_dot, "update_solution": update_solution,
             "update_direction": update_direction}
 
@@ -262,7 +256,7 @@ class PoissonSolver:
         self.z = self.r if options is None else _grid_array(shape)
         self.multigrid = None if options is None else Multigrid(k, self.weights, options,
                                                                 shapes, self.z, self.r)
-        self.f_norm = math.sqrt(k["interior_norm2"](self.f))
+        self.f_norm = math.sqrt(k["dot"](self.f, self.f))
         self.start_norm, self.reference = 0.0, 1.0
 
     def start(self, u0):

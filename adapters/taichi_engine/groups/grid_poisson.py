@@ -94,7 +94,10 @@ class MultigridOptions:
     """levels: grids in the hierarchy (0: as many as halving allows, down to 3 points on the
     shortest side); smoother: "rbgs" (red-black Gauss-Seidel) or "jacobi" (damped, omega =
     2d / (2d + 1), the smoothing-optimal weight of the 5-/7-point Laplacian); sweeps: pre-
-    and post-smoothing sweeps per level (equal: a symmetric cycle); cycle: "V" or "W";
+    and post-smoothing sweeps per level (equal: a symmetric cycle; 2 by default: measured,
+    2D 1025^2 to rtol 1e-8 ties with 1 sweep (6 against 8 iterations, 0.39 s both) and 3D
+    65^3 is 25 % faster (6 against 10 iterations)); cycle: "V" or "W" (W: 2^levels coarse
+    visits, each a few kernel launches: slower on these grids, kept for comparison);
     coarse_sweeps: symmetric Gauss-Seidel sweeps on the coarsest level (0: enough to cut its
     error 1000-fold, ln(1000) (m + 1)^2 / pi^2 for m points on its longest side, GS's rate
     being cos^2(pi / (m + 1)))."""
@@ -166,10 +169,11 @@ class PoissonSim(Sim):
         key = ("grid_poisson", len(self.shape), formulation,
                self.options.smoother if self.options else "")
         self.cold = key not in rt["compiled"]
-        t0 = time.perf_counter()
-        self._warm_up()
-        self.compile_s = time.perf_counter() - t0
-        rt["compiled"].add(key)
+        if self.cold:
+            t0 = time.perf_counter()
+            self._warm_up()
+            self.compile_s = time.perf_counter() - t0
+            rt["compiled"].add(key)
         self.solver = self._solver(self.shape, self.spacing, self.f, self.options)
         self.last = self.solver.start(self.u0)  # (iterations 0, residual of the guess)
         self.cap = iteration_cap(self.shape, self.spacing, self.solver.start_ratio(self.rtol))
