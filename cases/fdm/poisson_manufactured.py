@@ -132,7 +132,7 @@ class PoissonManufactured(Case):
 
     # -- tolerance ----------------------------------------------------------------------------
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        dim, n, h = self.dims(p)
+        dim, _, h = self.dims(p)
         scale = self.motion_scale(p)
         f_norm = dim * np.pi ** 2 * float(np.linalg.norm(self.continuum(p)))
         residual_roundoff = (2 * dim + 1) * EPS * (4.0 * dim / h ** 2) * scale

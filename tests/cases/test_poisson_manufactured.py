@@ -34,7 +34,7 @@ def test_manufactured_u_is_the_lowest_eigenvector(variant):
     in 2D and 3D alike. Round-off: the stencil's 2d+1 terms of size <= (4d/h^2) max|u|, plus
     sin's rounding (2 pi + 2) eps a factor, amplified by the stencil's 4d/h^2."""
     p = CASE.variant_params(variant)
-    dim, n, h = CASE.dims(p)
+    dim, _, h = CASE.dims(p)
     u = CASE.continuum(p)
     lap = GridLaplacian(u.shape, (h,) * dim, (("dirichlet", "dirichlet"),) * dim)
     gap = np.max(np.abs(lap.apply(u) + lambda_min(dim, h) * u))
@@ -47,7 +47,7 @@ def test_factor_matches_a_direct_solve(variant):
     the solve's own residual (round-off), plus the residual's and the reference's rounding
     (the case's tolerance terms with rtol replaced by the residual obtained)."""
     p = CASE.variant_params(variant)
-    dim, n, h = CASE.dims(p)
+    dim, _, h = CASE.dims(p)
     u, info = solve_problem(PoissonProblem.of(CASE.scene(p).grids[0]), "direct", 1e-8)
     assert info["residual"] <= p["rtol"]
     bound, _ = CASE.tolerance({**p, "rtol": info["residual"]}, "steady", 0, 1.0)

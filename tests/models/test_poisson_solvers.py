@@ -155,7 +155,7 @@ def test_bad_input_is_refused_with_the_reason():
         solve_problem(problem, "jacobi", RTOL)
     with pytest.raises(ValueError, match="rtol must be in"):
         solve_problem(problem, "cg", 0.0)
-    u, info = solve_problem(problem, "cg", RTOL)  # non-2^k+1 grids: the other methods
+    _, info = solve_problem(problem, "cg", RTOL)  # non-2^k+1 grids: the other methods
     assert info["residual"] <= RTOL
     neumann = Grid(shape=(9, 9), spacing=0.125, model="poisson", boundary="neumann",
                    fields={"u": np.zeros((9, 9)), "f": np.zeros((9, 9))})
