@@ -5,7 +5,10 @@ The unknowns are the free (interior) points; the boundary points keep the initia
 Free-point system: A = L_h restricted to the free rows and columns (GridLaplacian.matrix()),
 b = f - L_h(u0 with its free points zeroed) on the free points (the boundary values moved to
 the right-hand side, one slice-stencil application). Methods (`METHODS`):
-- "direct": SuperLU (scipy.sparse.linalg.splu, COLAMD ordering) of A;
+- "direct": SuperLU (scipy.sparse.linalg.splu) of the SPD -A in its symmetric mode: minimum
+  degree ordering of A + A^T, diagonal pivots (measured against the default COLAMD with
+  partial pivoting: factor 1.4 s against 2.3 s at N = 513 in 2D, 1.8 s against 5.7 s at
+  N = 33 in 3D, half the fill). 3D fill grows like n^(4/3): N = 65 in 3D is minutes;
 - "cg": scipy.sparse.linalg.cg on the SPD system (-A) x = -b, no preconditioner (scipy's: its
   compiled sparse mat-vec is as fast as a slice stencil in numpy, and the loop is the textbook
   one; iterations counted by its callback);
@@ -39,6 +42,8 @@ METHODS = ("direct", "cg", "multigrid", "pyamg")
 MG_MODES = ("pcg", "vcycle")
 DEFAULT_MG_MODE = "pcg"
 MAX_RESTARTS = 3
+SUPERLU_OPTIONS = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0,
+                   "options": {"SymmetricMode": True}}
 MAX_CYCLES = 200  # V-cycles or MGPCG iterations: a bounded count is multigrid's point
 DEFAULT_OPTIONS = {"pre": 2, "post": 2, "mode": DEFAULT_MG_MODE}
 
@@ -109,10 +114,10 @@ def _restarting(solve_once, x, A, b, target):
 
 def _direct(problem, target, options):
     A, b = problem.system()
-    lu = spla.splu(A.tocsc())
+    lu = spla.splu((-A).tocsc(), **SUPERLU_OPTIONS)
     setup = time.perf_counter()
-    x, iterations = _restarting(lambda x: (x + lu.solve(b - A @ x), 1), problem.u0[problem.free],
-                                A, b, target)
+    x, iterations = _restarting(lambda x: (x - lu.solve(b - A @ x), 1),
+                                problem.u0[problem.free], A, b, target)
     return x, iterations, setup
 
 

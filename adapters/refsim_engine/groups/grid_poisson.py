@@ -27,8 +27,8 @@ INTEGRATORS = ("steady",)
 STEADY = {"name": "steady", "order": 0, "family": "static solve", "explicit": False,
           "symplectic": False}
 SOLVER_TEXT = {
-    "direct": "scipy.sparse.linalg.splu (SuperLU, COLAMD column ordering) of the free-point "
-              "matrix",
+    "direct": "scipy.sparse.linalg.splu (SuperLU) of the free-point matrix -A, symmetric "
+              "mode: MMD_AT_PLUS_A ordering, diag_pivot_thresh 0",
     "cg": "scipy.sparse.linalg.cg on -A (SPD), no preconditioner",
     "multigrid": "in-house geometric multigrid (refsim.models.multigrid)",
     "pyamg": "pyamg.smoothed_aggregation_solver(-A).solve(-b, accel='cg') (defaults)",
