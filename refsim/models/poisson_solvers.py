@@ -14,11 +14,11 @@ the right-hand side, one slice-stencil application). Methods (`METHODS`):
   one; iterations counted by its callback);
 - "multigrid": the in-house geometric multigrid of refsim.models.multigrid (grids of 2^k + 1
   points per axis), mode "pcg" (CG preconditioned by one symmetric V(2,2)-cycle, MGPCG) or
-  "vcycle" (V-cycles alone). MGPCG V(2,2) is the default: the fastest at N = 1025 (2D, rtol
-  1e-8, one thread, best of 5): 0.57 s (random rhs) and 0.55 s (smooth bump) against 0.58 to
-  0.83 s and 0.63 to 0.71 s for V(1,1), V(2,1), V(2,2) cycles alone; at N = 257 the cycles
-  alone were faster (0.03 s against 0.04 to 0.05 s), where the per-level Python overhead
-  counts;
+  "vcycle" (V-cycles alone). MGPCG V(2,2) is the default: at N = 1025 (2D, rtol 1e-8, one
+  thread, best of 3-5) it took 0.42 s (smooth bump rhs) and 0.33 s (the manufactured sine)
+  against 0.47 s and 0.44 s for V(2,2) cycles alone, 0.57 s against 0.51 s on a random rhs
+  (every mode present, where the smoother does most of the work): the faster on smooth data,
+  within 12 % otherwise;
 - "pyamg": pyamg.smoothed_aggregation_solver(-A) (an SPD matrix, as smoothed aggregation
   assumes), solved by its CG-accelerated cycles.
 
