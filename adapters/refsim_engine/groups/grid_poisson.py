@@ -1,0 +1,116 @@
+"""The in-house engine's Poisson group (slide 001: the 5-point, in 3D 7-point, Poisson
+equation): L_h u = f on the free points of one all-Dirichlet `Grid` of model "poisson"
+(refsim.models.poisson_solvers), 1D to 3D.
+
+Scene contract (shared with the taichi group): fields "u" (boundary values on the boundary,
+the initial guess inside) and "f" (right-hand side at every point), coefficient "rtol" (the
+relative residual target ||f - L_h u||_2 / ||f||_2 over the free points, in (0, 1)). One
+integrator, "steady": no time stepping, one `step()` is one complete solve from the scene's
+initial guess, solver setup included (each step re-solves from it, so a timing pass of fresh
+Sims times the whole solve). Formulations (engine variants): "direct" (SuperLU, the default),
+"cg" (no preconditioner), "multigrid" (in-house geometric multigrid, 2^k + 1 points per axis),
+"pyamg" (smoothed aggregation, CG-accelerated).
+
+Observes "grid.u" (the solution, the grid's shape), "grid.f" (the rhs, unchanged), "residual"
+(the relative residual of the last solve, recomputed by the slice stencil; that of the initial
+guess before any step) and "iterations" (iterations or cycles of the last solve; 1 for direct;
+0 before any step).
+"""
+from __future__ import annotations
+
+from refsim.engine import ModelGroup, Sim
+from refsim.models.multigrid import multigrid_reason
+from refsim.models.poisson_solvers import (DEFAULT_OPTIONS, METHODS, PoissonProblem,
+                                           dirichlet_reason, solve_problem)
+
+INTEGRATORS = ("steady",)
+STEADY = {"name": "steady", "order": 0, "family": "static solve", "explicit": False,
+          "symplectic": False}
+SOLVER_TEXT = {
+    "direct": "scipy.sparse.linalg.splu (SuperLU) of the free-point matrix -A, symmetric "
+              "mode: MMD_AT_PLUS_A ordering, diag_pivot_thresh 0",
+    "cg": "scipy.sparse.linalg.cg on -A (SPD), no preconditioner",
+    "multigrid": "in-house geometric multigrid (refsim.models.multigrid)",
+    "pyamg": "pyamg.smoothed_aggregation_solver(-A).solve(-b, accel='cg') (defaults)",
+}
+
+
+def claims(scene) -> bool:
+    return len(scene.grids) == 1 and scene.grids[0].model == "poisson"
+
+
+def supports(engine, scene, integrator):
+    if scene.part_kinds() != {"grids"}:
+        return (f"refsim poisson: a grid alone, got also "
+                f"{', '.join(sorted(scene.part_kinds() - {'grids'}))}")
+    grid = scene.grids[0]
+    reason = dirichlet_reason(grid)
+    if reason:
+        return f"refsim {reason}"
+    rtol = grid.coefficients.get("rtol")
+    if rtol is None or not 0.0 < rtol < 1.0:
+        return f"refsim poisson: coefficient rtol in (0, 1) required, got {rtol}"
+    return None
+
+
+def variants(engine, scene):
+    return METHODS
+
+
+class PoissonSim(Sim):
+    """One Dirichlet Poisson problem, solved afresh from the initial guess at every step."""
+
+    def __init__(self, grid, dt, method):
+        if method == "multigrid" and multigrid_reason(grid.shape):
+            raise ValueError(f"refsim poisson variant 'multigrid': "
+                             f"{multigrid_reason(grid.shape)}; use direct, cg or pyamg")
+        self.dt, self.grid, self.method = float(dt), grid, method
+        self.rtol = float(grid.coefficients["rtol"])
+        self.options = dict(DEFAULT_OPTIONS) if method == "multigrid" else {}
+        self.problem = PoissonProblem.of(grid)
+        self.u = self.problem.u0.copy()
+        self.iterations = 0
+        self.residual = self.problem.residual(self.u)
+
+    def _step_impl(self, n):
+        for _ in range(n):  # every step the same complete solve from the initial guess
+            problem = PoissonProblem.of(self.grid)
+            self.u, info = solve_problem(problem, self.method, self.rtol, dict(self.options))
+            self.iterations, self.residual = info["iterations"], info["residual"]
+
+    def _observe(self):
+        return {"grid.u": self.u.copy(), "grid.f": self.problem.f.copy(),
+                "residual": float(self.residual), "iterations": int(self.iterations)}
+
+    def settings(self):
+        out = {"integrator": dict(STEADY), "dtype": "float64", "threads": 1,
+               "solver": self.method, "solver_text": SOLVER_TEXT[self.method],
+               "rtol": self.rtol, "criterion": "||f - L_h u||_2 <= rtol ||f||_2 on the free "
+               "points, checked on the true residual (restart if the recurrence's drifted)",
+               "points": list(self.grid.shape), "unknowns": int(self.problem.free.sum()),
+               "model": self.problem.laplacian.describe(),
+               "step": "one complete solve from the initial guess (setup included)"}
+        if self.method == "multigrid":
+            from refsim.models.multigrid import GeometricMultigrid
+            mg = GeometricMultigrid(self.grid.shape, self.grid.spacing, self.options["pre"],
+                                    self.options["post"])
+            out.update(multigrid_mode=self.options["mode"],
+                       multigrid_use=("preconditioner of CG (MGPCG), one symmetric V-cycle "
+                                      "per iteration" if self.options["mode"] == "pcg"
+                                      else "solver: V-cycles until the residual target"),
+                       multigrid=mg.describe())
+        if self.method == "pyamg":
+            out["pyamg"] = {"strength": "symmetric", "aggregate": "standard",
+                            "smooth": "jacobi omega 4/3", "smoother": "symmetric block "
+                            "Gauss-Seidel pre and post", "cycle": "V", "accel": "cg",
+                            "max_coarse": 10, "max_levels": 10}
+        return out
+
+
+def build(engine, scene, dt, integrator, variant):
+    return PoissonSim(scene.grids[0], dt, variant or METHODS[0])
+
+
+MODEL_GROUP = ModelGroup(name="grid_poisson", build=build, claims=claims,
+                         parts=frozenset({"grids"}), features=frozenset({"grid", "poisson"}),
+                         supports=supports, variants=variants, integrators=INTEGRATORS)
