@@ -31,6 +31,12 @@ AS_PRINTED = {"hard_sphere_seed", "as_printed"}
 FIGURE_KEYS = {"kind", "title", "x", "y", "x_shift_column", "x_label", "y_label", "data"}
 
 
+# variants too large to solve in the contract's runs (a direct 3D solve at 65^3 takes
+# minutes): `refsim bench fdm` times them; their small siblings run the same code here
+AT_SCALE = {("poisson_manufactured", "2d_1025"), ("poisson_manufactured", "3d_65"),
+            ("poisson_manufactured", "poly_2d_1025")}
+
+
 # cases outside the slides' models, which the in-house engine refuses with this reason
 NOT_IN_HOUSE = {"rolling_disc": "no frictional rigid-body contact"}
 
@@ -88,7 +94,8 @@ def test_case_module_docstring_describes_the_case_in_30_words_or_more(name):
     assert len(doc.split()) >= 30, f"{name}: the module docstring must describe the case"
 
 
-@pytest.mark.parametrize("name,variant,formulation", list(_all_variants()))
+@pytest.mark.parametrize("name,variant,formulation", [v for v in _all_variants()
+                                                      if v[:2] not in AT_SCALE])
 def test_variant_takes_one_finite_step_of_reference_dt(name, variant, formulation):
     case = get_case(name)
     p = case.variant_params(variant)
@@ -114,7 +121,7 @@ def _full_runs():
     Newton on the implicit steppers) and the 1000-sphere box take seconds each: slow."""
     for name, variant, formulation in _all_variants():
         case = get_case(name)
-        if "sph" in case.tags:
+        if "sph" in case.tags or (name, variant) in AT_SCALE:
             continue
         scene = case.scene(case.variant_params(variant))
         slow = formulation in ("kkt", "penalty") or variant == "box_1000"
