@@ -180,13 +180,6 @@ def heat_rk_kernel(ndim):
     return advance
 
 
-@ti.kernel
-def axpy(dst: nd_f64, x: nd_f64, a: f64, y: nd_f64):
-    """dst = x + a y, pointwise."""
-    for p in range(dst.shape[0]):
-        dst[p] = x[p] + a * y[p]
-
-
 def laplacian_kernel(ndim):
     """dst = base + a (coef lap src) at every point (a one-off sweep: starts, outputs,
     right-hand sides of the implicit steps)."""
