@@ -19,8 +19,14 @@ import time
 
 import numpy as np
 
-from adapters.common.grid_pde import (OFFERED, claims, field_name, fields_of, integrator_reason,
-                                      scene_reason)
+from adapters.common.grid_pde import (
+    OFFERED,
+    claims,
+    field_name,
+    fields_of,
+    integrator_reason,
+    scene_reason,
+)
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.first_order import get_first_order
@@ -34,17 +40,20 @@ FAMILY = {"implicit_euler": "implicit Euler (taichi SparseSolver LU)",
           "crank_nicolson": "implicit trapezoidal (Crank-Nicolson, taichi SparseSolver LU)",
           "implicit_midpoint": "implicit midpoint (taichi SparseSolver LU)"}
 ORDER = {"implicit_euler": 1, "crank_nicolson": 2, "implicit_midpoint": 2}
-# kernel launches per step of each scheme (the explicit ones: one launch per Sim.step(n))
-PER_STEP = {"explicit_euler": "1 sweep (fused u + h D lap u), 0 launches (time loop in kernel)",
-            "midpoint": "2 sweeps + 2 pointwise passes, time loop in kernel",
-            "heun": "2 sweeps + 2 pointwise passes, time loop in kernel",
-            "rk4": "4 sweeps + 4 pointwise passes, time loop in kernel",
-            "symplectic_euler": "1 sweep + 1 pointwise pass, time loop in kernel",
-            "stormer_verlet": "1 sweep + 1 pointwise pass, time loop in kernel",
-            "velocity_verlet": "1 sweep + 2 pointwise passes, time loop in kernel",
-            "implicit_euler": "1 LU solve + up to 2 kernel launches, one Python loop per step",
-            "crank_nicolson": "1 LU solve + 1 kernel launch, one Python loop per step",
-            "implicit_midpoint": "1 LU solve + 2 kernel launches, one Python loop per step"}
+# what one step costs: passes over the grid (a sweep: the Laplacian at every point) and, for
+# the implicit schemes, kernel launches from Python around the solve
+LOOP = "; no launch per step (the time loop is inside the one kernel of Sim.step(n))"
+PER_STEP = {"explicit_euler": "1 fused sweep u + h (D lap u) into the other buffer" + LOOP,
+            "midpoint": "2 stage passes + 2 sweeps + 1 update pass" + LOOP,
+            "heun": "2 stage passes + 2 sweeps + 1 update pass" + LOOP,
+            "rk4": "4 stage passes + 4 sweeps + 1 update pass" + LOOP,
+            "symplectic_euler": "1 sweep (v += h c^2 lap u) + 1 pass (u += h v)" + LOOP,
+            "stormer_verlet": "1 sweep (d += h^2 c^2 lap u) + 1 pass (u += d)" + LOOP,
+            "velocity_verlet": "2 passes + 1 sweep (a = c^2 lap u)" + LOOP,
+            "implicit_euler": "1 LU solve; heat: no kernel launch; wave: 2 launches (rhs "
+                              "u + h v; v += h c^2 lap u1)",
+            "crank_nicolson": "1 launch (rhs u + h/2 D lap u) + 1 LU solve",
+            "implicit_midpoint": "1 launch (ax, rhs) + 1 LU solve + 1 launch (v update)"}
 SOLVER_SETTING = ("ti.linalg.SparseSolver(dtype=f64, solver_type='LU') (Eigen SparseLU) of "
                   "I - c h^k lap assembled by a taichi kernel into a SparseMatrixBuilder, "
                   "analysed and factorised once per Sim; solve() takes and returns numpy f64")
@@ -134,7 +143,7 @@ class GridSim(Sim):
         from ..runtime import THREADS, effective_config
         return {"integrator": describe(self.integrator, first_order), "dtype": "float64",
                 "threads": THREADS, **effective_config(), "model": self.system.describe(),
-                "points": self.size, "per_step": PER_STEP[self.integrator],
+                "points": self.size, "kernels_per_step": PER_STEP[self.integrator],
                 "solve": SOLVER_SETTING if self.integrator in IMPLICIT else "none (explicit)",
                 "layout": "flat C-order arrays, neighbours at p -+ stride (runtime strides: one "
                           "kernel per scheme and number of axes, no recompilation per shape)",
