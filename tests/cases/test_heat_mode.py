@@ -99,3 +99,21 @@ def test_stress_measures_the_ftcs_limit_one_over_2d(variant, limit, tmp_path):
     assert table.loc["explicit_euler", "agrees"]
     assert table.loc["explicit_euler", "measured"] >= limit  # the criterion lands above it
     assert math.isinf(table.loc["implicit_euler", "measured"])
+
+
+@pytest.mark.parametrize("integrator", ["implicit_euler", "crank_nicolson"])
+@pytest.mark.parametrize("r", [10.0, 100.0, 1000.0])
+def test_implicit_schemes_never_grow_noise_far_past_the_explicit_limit(integrator, r):
+    """Unconditional stability, beyond the stress search's short runs at large r: 200 steps
+    on noise (every mode, the sawtooth included) never raise the energy 1/2 sum w u^2
+    (|R(z)| <= 1 on the whole negative axis: implicit Euler 1/(1 + x), CN |1 - x/2|/(1 + x/2)),
+    up to the round-off of the solves."""
+    p = CASE.variant_params("2d", {"initial": "noise", "boundary": "periodic"})
+    sim = ENGINE.build(CASE.scene(p), CASE.dt_of(p, r), integrator, "")
+    energies = [float(CASE.energy(p, {"grid.u": sim.observe()["grid.u"][None],
+                                      "t": np.zeros(1)})[0])]
+    for _ in range(20):
+        sim.step(10)
+        energies.append(float(CASE.energy(p, {"grid.u": sim.observe()["grid.u"][None],
+                                              "t": np.zeros(1)})[0]))
+    assert np.all(np.diff(energies) <= 1e-12 * energies[0]), energies
