@@ -67,7 +67,7 @@ class PoissonManufactured(Case):
                 "3d_65": {"dim": 3, "points": 65},
                 "poly_2d": {"solution": "polynomial"},
                 "poly_2d_1025": {"solution": "polynomial", "points": 1025}}
-    default_variants = quick_variants = ("2d",)
+    default_variants = quick_variants = ("2d", "poly_2d")
     order_meaningful = False
 
     # -- grid and fields ----------------------------------------------------------------------
