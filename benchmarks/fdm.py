@@ -22,6 +22,8 @@ import time
 
 import numpy as np
 
+from benchmarks.inhouse import best_time
+
 GOALS = {"ftcs_ratio": 1.0 / 3.0, "poisson_ratio": 2.0, "poisson_exponent": 1.2}
 
 
@@ -29,15 +31,6 @@ def _engine(name):
     from refsim.registry import get_engine
     engine = get_engine(name)
     return engine if engine.available() else None
-
-
-def _best(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def ftcs_rows(sizes, repeats):
@@ -54,7 +47,7 @@ def ftcs_rows(sizes, repeats):
                 continue
             sim = engine.build(scene, dt, "explicit_euler", "")
             sim.step(steps)  # warm-up: compilation, caches, the update matrix
-            best = _best(lambda: sim.step(steps), repeats) / steps
+            best = best_time(lambda s=sim, k=steps: s.step(k), repeats) / steps
             sim.close()
             rows.append({"engine": name, "n": n, "seconds_per_step": best,
                          "cell_updates_per_s": n * n / best})

@@ -86,3 +86,17 @@ def grid_refusal(engine: str, what: str):
         f"{engine} has no finite-difference grid solver ({what}); the heat, wave and Poisson "
         "grids run on refsim and taichi", name="grid_refused",
         claims=lambda scene: bool(scene.grids))
+
+
+def evolution_group(heat_sim, wave_sim, supports):
+    """The heat-and-wave MODEL_GROUP of an engine: `heat_sim(grid, dt, integrator)` for
+    diffusion grids, `wave_sim(...)` for wave grids (refsim and taichi declare the same)."""
+    from refsim.engine import ModelGroup
+
+    def build(engine, scene, dt, integrator, variant):
+        grid = scene.grids[0]
+        return (heat_sim if grid.model == "diffusion" else wave_sim)(grid, dt, integrator)
+    return ModelGroup(name="grid_evolution", build=build, claims=claims,
+                      parts=frozenset({"grids"}), features=frozenset({"grid", "diffusion",
+                                                                      "wave"}),
+                      supports=supports, integrators=OFFERED)

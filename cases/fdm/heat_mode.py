@@ -131,13 +131,13 @@ class HeatMode(Case):
     # -- tolerance ----------------------------------------------------------------------------
     def discrete_deviation(self, p, integrator, dt) -> float:
         """max over the run of |G^n - exp(n z)| (times max|phi| = 1)."""
-        steps = np.arange(int(round(self.t_end(p) / dt)) + 1)
+        steps = np.arange(round(self.t_end(p) / dt) + 1)
         z = dt * p["diffusivity"] * self.grid(p).discrete_eigenvalue()
         gap = self.factor(p, integrator, dt).real ** steps - np.exp(steps * z)
         return float(np.max(np.abs(gap)))
 
     def roundoff(self, p, integrator, dt) -> tuple[float, int]:
-        steps = int(round(self.t_end(p) / dt))
+        steps = round(self.t_end(p) / dt)
         r = p["diffusivity"] * dt / self.grid(p).h ** 2
         return 2.0 * steps * stages(integrator) * (1.0 + 4.0 * self.grid(p).dim * r) * EPS, \
             steps

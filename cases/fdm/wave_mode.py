@@ -151,7 +151,7 @@ class WaveMode(Case):
         return {"err_continuum": float(np.max(np.abs(u - math.cos(omega * t) * g.mode())))}
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        steps = int(round(self.t_end(p) / dt))
+        steps = round(self.t_end(p) / dt)
         n = np.arange(steps + 1)
         omega = self.omega_h(p)
         gap = discrete_u(integrator, omega, dt, n) - np.cos(omega * dt * n)

@@ -74,7 +74,7 @@ class GridLaplacian:
         self._matrix = None
 
     @classmethod
-    def of(cls, grid) -> "GridLaplacian":
+    def of(cls, grid) -> GridLaplacian:
         return cls(grid.shape, grid.spacing, grid.boundary)
 
     @property

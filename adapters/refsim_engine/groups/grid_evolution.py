@@ -15,10 +15,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapters.common.grid_pde import (FIRST_ORDER_SPARSE, OFFERED, SECOND_ORDER_IMPLICIT,
-                                      claims, field_name, fields_of, integrator_reason,
-                                      scene_reason)
-from refsim.engine import ModelGroup, Sim
+from adapters.common.grid_pde import (
+    FIRST_ORDER_SPARSE,
+    SECOND_ORDER_IMPLICIT,
+    evolution_group,
+    field_name,
+    fields_of,
+    integrator_reason,
+    scene_reason,
+)
+from refsim.engine import Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.sparse_linear import first_order_implicit, second_order_implicit
@@ -82,12 +88,4 @@ class WaveSim(SteppedSim):
                           if not self.stepper.explicit else "none (explicit)")}
 
 
-def build(engine, scene, dt, integrator, variant):
-    grid = scene.grids[0]
-    return (HeatSim if grid.model == "diffusion" else WaveSim)(grid, dt, integrator)
-
-
-MODEL_GROUP = ModelGroup(name="grid_evolution", build=build, claims=claims,
-                         parts=frozenset({"grids"}),
-                         features=frozenset({"grid", "diffusion", "wave"}),
-                         supports=supports, integrators=OFFERED)
+MODEL_GROUP = evolution_group(HeatSim, WaveSim, supports)

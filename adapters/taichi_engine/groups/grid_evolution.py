@@ -20,14 +20,13 @@ import time
 import numpy as np
 
 from adapters.common.grid_pde import (
-    OFFERED,
-    claims,
+    evolution_group,
     field_name,
     fields_of,
     integrator_reason,
     scene_reason,
 )
-from refsim.engine import ModelGroup, Sim
+from refsim.engine import Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.first_order import get_first_order
 from refsim.models.grid_pde import GridPDE
@@ -299,12 +298,4 @@ class WaveSim(GridSim):
         return out
 
 
-def build(engine, scene, dt, integrator, variant):
-    grid = scene.grids[0]
-    return (HeatSim if grid.model == "diffusion" else WaveSim)(grid, dt, integrator)
-
-
-MODEL_GROUP = ModelGroup(name="grid_evolution", build=build, claims=claims,
-                         parts=frozenset({"grids"}),
-                         features=frozenset({"grid", "diffusion", "wave"}),
-                         supports=supports, integrators=OFFERED)
+MODEL_GROUP = evolution_group(HeatSim, WaveSim, supports)
