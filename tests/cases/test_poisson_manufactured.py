@@ -14,7 +14,9 @@ from refsim.scene import Scene
 from refsim.scene.grids import Grid
 
 EPS = np.finfo(float).eps
-VARIANTS = CASE.default_variants
+VARIANTS = tuple(v for v in CASE.default_variants
+                 if CASE.variant_params(v)["solution"] == "sine")  # the factor's variants
+POLY = "poly_2d"  # u_h = u exactly: the 5-point stencil is exact on a quadratic per axis
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -74,6 +76,28 @@ def test_case_runs_every_formulation(variant, method):
     factor = discrete_factor(CASE.dims(p)[2])
     # err_continuum = (factor - 1) max|u| up to the solver's error (<= err_max)
     assert abs(row["err_continuum"] - (factor - 1.0)) <= row["err_max"] + 4 * EPS
+
+
+def test_polynomial_is_its_own_discrete_solution():
+    """L_h u = f exactly up to round-off on the quadratic u = prod 4 x (1 - x): its second
+    differences have no truncation error. Round-off: the stencil's 2d + 1 terms of size
+    <= (4d/h^2) max|u| each rounded, against |f| ~ 16."""
+    p = CASE.variant_params(POLY)
+    dim, _, h = CASE.dims(p)
+    u, f = CASE.continuum(p), CASE.source(p)
+    lap = GridLaplacian(u.shape, (h,) * dim, (("dirichlet", "dirichlet"),) * dim)
+    inner = (slice(1, -1),) * dim
+    gap = np.max(np.abs((lap.apply(u) - f)[inner]))
+    assert gap <= 4 * (2 * dim + 1) * EPS * 4 * dim / h ** 2
+    assert np.array_equal(CASE.exact_discrete(p), u)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_polynomial_variant_runs_every_formulation_to_its_residual(method):
+    row = _checked_row(POLY, method)
+    assert row["status"] == "ok", row["reason"]
+    assert row["within_tol"] and row["residual"] <= CASE.variant_params(POLY)["rtol"]
+    assert row["iterations"] >= (1 if method == "direct" else 3)  # many modes: real work
 
 
 @pytest.mark.parametrize("method", METHODS)
