@@ -67,17 +67,64 @@ class ImplicitEuler(Integrator):
         return (shift(x, h * v1), v1)
 
 
+SPARSE_MIN = 96  # state size (32 bodies) from which Baraff-Witkin solves sparsely
+
+
 class BaraffWitkin(Integrator):
     """Baraff & Witkin (1998) linearised backward Euler for spring systems:
 
-    (M - h df/dv - h^2 df/dx) dv = h (f0 + h df/dx v0), here divided through by M.
+    (M - h df/dv - h^2 df/dx) dv = h (f0 + h df/dx v0).
     One Newton step of backward Euler from v0; identical to it for linear forces.
+
+    Small or batched states (below SPARSE_MIN, or with batch axes) solve it divided through by
+    M with dense Jacobians. A single state of SPARSE_MIN or more, on a system offering
+    `sparse_force_jacobians(t, x, v)` (CSR force Jacobians, or None), solves the symmetric
+    form above with scipy.sparse: `solver="direct"` (SuperLU) or `"cg"` (conjugate gradient
+    from dv = 0 to relative residual `rtol`; the matrix is symmetric, and positive definite
+    while no spring is compressed below its rest length: Baraff & Witkin's caveat, sec. 5.2;
+    `StepFailure` when CG does not converge).
     """
 
     name, order, family, explicit = "baraff_witkin", 1, "implicit (linearised)", False
 
+    def __init__(self, solver="direct", rtol=1e-10):
+        if solver not in ("direct", "cg"):
+            raise ValueError(f"baraff_witkin solver must be 'direct' or 'cg', got {solver!r}")
+        self.solver, self.rtol = solver, float(rtol)
+
+    def describe(self) -> dict:
+        return {**super().describe(), "solver": self.solver,
+                "rtol": self.rtol if self.solver == "cg" else None,
+                "sparse_from_state_size": SPARSE_MIN}
+
+    def _sparse_step(self, system, t, x, v, h, shift):
+        import scipy.sparse as sp
+        from scipy.sparse.linalg import cg, spsolve
+        jacobians = system.sparse_force_jacobians(t, x, v)
+        if jacobians is None:
+            return None
+        kx, kv = jacobians
+        m = np.repeat(system.masses, 3)
+        matrix = (sp.diags(m) - h * kv - (h * h) * kx).tocsr()
+        rhs = h * (m * system.accel(t, x, v) + h * (kx @ v))
+        if self.solver == "direct":
+            dv = spsolve(matrix.tocsc(), rhs)
+        else:
+            dv, info = cg(matrix, rhs, rtol=self.rtol, atol=0.0, maxiter=10 * len(rhs))
+            if info != 0:
+                raise StepFailure(f"baraff_witkin CG did not reach rtol {self.rtol:g} "
+                                  f"(info {info}; a compressed spring makes the matrix "
+                                  "indefinite)")
+        v1 = v + dv
+        return (shift(x, h * v1), v1)
+
     def _step(self, system, t, state, h, shift):
         x, v = state
+        if np.ndim(x) == 1 and np.size(x) >= SPARSE_MIN and \
+                hasattr(system, "sparse_force_jacobians"):
+            out = self._sparse_step(system, t, x, v, h, shift)
+            if out is not None:
+                return out
         jac, ax = implicit_matrix(system, t, x, v, h)
         rhs = h * (system.accel(t, x, v) + h * matvec(ax, v))
         v1 = v + solve(jac, rhs)

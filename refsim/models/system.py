@@ -68,6 +68,9 @@ class ParticleSystem:
             a = f * self.inv_m + self.g_accel
         return a.reshape(x.shape)
 
+    def sparse_force_jacobians(self, t, x, v):
+        return sparse_force_jacobians(self, t, x, v)
+
     def jacobians(self, t, x, v):
         if self.rods is not None:
             return finite_difference_jacobians(self.accel, t, x, v)
@@ -82,6 +85,23 @@ class ParticleSystem:
             kx, kv = self.springs.jacobians(x.reshape(shape), v.reshape(shape))
             jx, jv = jx + inv_m * kx, jv + inv_m * kv
         return jx, jv
+
+
+def sparse_force_jacobians(system, t, x, v):
+    """(df/dx, df/dv) of a ParticleSystem's springs and drag as CSR (3n x 3n) FORCE Jacobians
+    (not divided by the masses), for one flat state; None when the system has rods (their
+    constraint forces have no closed-form sparse Jacobian here)."""
+    import scipy.sparse as sp
+
+    from .spring_jacobians import sparse_jacobians
+    if system.rods is not None or np.ndim(x) != 1:
+        return None
+    n = 3 * system.nbody
+    kx, kv = (sparse_jacobians(system.springs, x.reshape(-1, 3), v.reshape(-1, 3))
+              if system.springs is not None else (sp.csr_matrix((n, n)),) * 2)
+    if system.drag > 0:
+        kv = kv - system.drag * sp.identity(n, format="csr")
+    return kx, kv
 
 
 def finite_difference_jacobians(accel, t, x, v, rel=1e-6):
