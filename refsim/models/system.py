@@ -93,11 +93,13 @@ def sparse_force_jacobians(system, t, x, v):
     constraint forces have no closed-form sparse Jacobian here)."""
     import scipy.sparse as sp
 
-    from .spring_jacobians import sparse_jacobians
+    from .spring_jacobians import JacobianAssembler
     if system.rods is not None or np.ndim(x) != 1:
         return None
     n = 3 * system.nbody
-    kx, kv = (sparse_jacobians(system.springs, x.reshape(-1, 3), v.reshape(-1, 3))
+    if system.springs is not None and getattr(system, "_assembler", None) is None:
+        system._assembler = JacobianAssembler(system.springs, system.nbody)  # pattern once
+    kx, kv = (system._assembler(x.reshape(-1, 3), v.reshape(-1, 3))
               if system.springs is not None else (sp.csr_matrix((n, n)),) * 2)
     if system.drag > 0:
         kv = kv - system.drag * sp.identity(n, format="csr")

@@ -90,3 +90,17 @@ def test_baraff_witkin_on_a_linear_string_is_backward_euler_on_each_mode(mode):
     # each step rounds by a few eps of the 0.01 m amplitude, not amplified (|factor| <= 1)
     assert np.max(np.abs(z - factor * 0.01 * shape)) <= steps * 64 * EPS * 0.01
     assert abs(factor) < 1.0  # numerical damping, measured: the exact (1 + w^2 h^2)^(-k/2)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_assembler_with_a_fixed_pattern_equals_the_one_off_assembly(seed):
+    from refsim.models.spring_jacobians import JacobianAssembler
+    springs, x, v = _random_network(seed, n=30, m=80)
+    assembler = JacobianAssembler(springs, 30)
+    for _ in range(2):  # the pattern is reused
+        ax, av = assembler(x, v)
+        sx, sv = sparse_jacobians(springs, x, v)
+        # the same sums; bincount adds in triplet order, scipy in its own
+        assert np.max(np.abs((ax - sx).toarray())) <= 16 * EPS * np.max(np.abs(sx.toarray()))
+        assert np.max(np.abs((av - sv).toarray())) <= 16 * EPS * np.max(np.abs(sv.toarray()))
+        x = x + 0.1
