@@ -3,6 +3,8 @@ the same `Grid` parts): which scenes they claim, the steppers offered per PDE, a
 a stepper or a scene is refused."""
 from __future__ import annotations
 
+import numpy as np
+
 from refsim.integrators import INTEGRATORS
 from refsim.models.grid_pde import MODELS, coefficient_reason
 
@@ -65,7 +67,6 @@ def integrator_reason(grid, integrator: str | None) -> str | None:
 
 def fields_of(grid):
     """(u, v) initial arrays (v None for diffusion; zeros when a wave grid has no v)."""
-    import numpy as np
     u = np.array(grid.fields["u"] if "u" in grid.fields else next(iter(grid.fields.values())),
                  float)
     if grid.model != "wave":

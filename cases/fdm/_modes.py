@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from refsim.case import Case
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.sparse_linear import first_order_implicit
 from refsim.models.grid_laplacian import mode_eigenvalue
@@ -99,6 +100,26 @@ class ModeGrid:
         grid = Grid(shape=self.shape, spacing=self.h, model=model, boundary=self.boundary,
                     fields=fields, coefficients=coefficients)
         return Scene(grids=(grid,), gravity=(0.0, 0.0, 0.0))
+
+
+class ModeFieldCase(Case):
+    """What the heat and wave mode cases share: the grid of their parameters, its points as
+    the bodies, the compared field u (grid.u) and its error, the max over grid points."""
+
+    observable, units = "u", "1 (of the initial amplitude)"
+
+    def grid(self, p) -> ModeGrid:
+        return ModeGrid(p)
+
+    def bodies(self, p):
+        return int(np.prod(self.grid(p).shape))
+
+    def observables(self, p, obs):
+        return {"u": np.asarray(obs["grid.u"], float)}
+
+    def error(self, p, observed, reference):
+        diff = np.asarray(observed["u"]) - np.asarray(reference["u"])
+        return np.max(np.abs(diff.reshape(len(diff), -1)), axis=1)
 
 
 def heat_stepper(integrator: str):

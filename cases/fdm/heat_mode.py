@@ -26,20 +26,26 @@ import math
 
 import numpy as np
 
-from refsim.case import EPS, Case, Param
+from refsim.case import EPS, Param
 
-from ._modes import BOUNDARIES, ModeGrid, heat_stepper, real_stability_limit, stages
+from ._modes import (
+    BOUNDARIES,
+    ModeFieldCase,
+    ModeGrid,
+    heat_stepper,
+    real_stability_limit,
+    stages,
+)
 
 DIFFUSION_RS = (0.5, 0.25, 0.125)  # r = D dt / h^2 of the timed sweep
 ORDER_RS = (1.0 / 16, 1.0 / 32, 1.0 / 64)  # accuracy only: the stable explicit rows span 16x
 
 
-class HeatMode(Case):
+class HeatMode(ModeFieldCase):
     name = "heat_mode"
     description = ("heat equation on a grid from one Fourier mode: exact amplification factor "
                    "of each scheme per step, stability limit r <= 1/(2d)")
     tags = ("fdm", "grid", "diffusion", "exact")
-    observable, units = "u", "1 (of the initial amplitude)"
     params = {
         "dim": Param(2, 1, 3, "spatial dimensions"),
         "cells": Param(32, 4, 4096, "intervals per axis (unit length)"),
@@ -56,16 +62,10 @@ class HeatMode(Case):
                 "fine_1d": {"dim": 1, "cells": 256}}
     default_variants = quick_variants = ("2d",)
 
-    def grid(self, p) -> ModeGrid:
-        return ModeGrid(p)
-
     def scene(self, p):
         g = self.grid(p)
         u0 = g.noise(p["seed"]) if p["initial"] == "noise" else g.mode()
         return g.scene("diffusion", {"u": u0}, {"diffusivity": p["diffusivity"]})
-
-    def bodies(self, p):
-        return int(np.prod(self.grid(p).shape))
 
     def t_end(self, p):
         return p["decay_times"] / (p["diffusivity"] * abs(self.grid(p).continuum_eigenvalue()))
@@ -83,17 +83,10 @@ class HeatMode(Case):
         return self.dt_of(p, 0.125)
 
     # -- reference ----------------------------------------------------------------------------
-    def observables(self, p, obs):
-        return {"u": np.asarray(obs["grid.u"], float)}
-
     def reference(self, p, t):
         g = self.grid(p)
         decay = np.exp(p["diffusivity"] * g.discrete_eigenvalue() * np.asarray(t, float))
         return {"u": np.multiply.outer(decay, g.mode())}
-
-    def error(self, p, observed, reference):
-        diff = np.asarray(observed["u"]) - np.asarray(reference["u"])
-        return np.max(np.abs(diff.reshape(len(diff), -1)), axis=1)
 
     def energy(self, p, obs):
         g = self.grid(p)

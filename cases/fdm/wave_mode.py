@@ -26,10 +26,10 @@ import math
 
 import numpy as np
 
-from refsim.case import EPS, Case, Param
+from refsim.case import EPS, Param
 from refsim.stress_search import theory as oscillator_limit
 
-from ._modes import BOUNDARIES, ModeGrid
+from ._modes import BOUNDARIES, ModeFieldCase, ModeGrid
 
 COURANTS = (1.0, 0.5, 0.25)  # C = c dt / h of the timed sweep
 ORDER_COURANTS = (0.125, 0.0625)
@@ -63,12 +63,11 @@ def discrete_u(integrator: str, omega: float, h: float, steps) -> np.ndarray:
     return np.real(powers @ (vectors[0] * coeffs))
 
 
-class WaveMode(Case):
+class WaveMode(ModeFieldCase):
     name = "wave_mode"
     description = ("wave equation on a grid, a standing mode from rest: discrete dispersion "
                    "relation of each scheme, leapfrog exact at C = 1 in 1D, C <= 1/sqrt(d)")
     tags = ("fdm", "grid", "wave", "exact")
-    observable, units = "u", "1 (of the initial amplitude)"
     params = {
         "dim": Param(1, 1, 3, "spatial dimensions"),
         "cells": Param(32, 4, 4096, "intervals per axis (unit length)"),
@@ -83,17 +82,11 @@ class WaveMode(Case):
                 "long_1d": {"periods": 100.0}}
     default_variants = quick_variants = ("1d",)
 
-    def grid(self, p) -> ModeGrid:
-        return ModeGrid(p)
-
     def scene(self, p):
         g = self.grid(p)
         u0 = g.noise(p["seed"]) if p["initial"] == "noise" else g.mode()
         return g.scene("wave", {"u": u0, "v": np.zeros_like(u0)},
                        {"wave_speed": p["wave_speed"]})
-
-    def bodies(self, p):
-        return int(np.prod(self.grid(p).shape))
 
     def omega_h(self, p) -> float:
         return p["wave_speed"] * math.sqrt(-self.grid(p).discrete_eigenvalue())
@@ -114,16 +107,9 @@ class WaveMode(Case):
     def reference_dt(self, p):
         return self.dt_of(p, 0.25)
 
-    def observables(self, p, obs):
-        return {"u": np.asarray(obs["grid.u"], float)}
-
     def reference(self, p, t):
         return {"u": np.multiply.outer(np.cos(self.omega_h(p) * np.asarray(t, float)),
                                        self.grid(p).mode())}
-
-    def error(self, p, observed, reference):
-        diff = np.asarray(observed["u"]) - np.asarray(reference["u"])
-        return np.max(np.abs(diff.reshape(len(diff), -1)), axis=1)
 
     def energy(self, p, obs):
         g = self.grid(p)

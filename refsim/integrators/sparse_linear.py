@@ -28,35 +28,29 @@ from .base import Integrator
 from .first_order import FirstOrderStepper
 
 
-class _Factorised:
-    """(I - c A)^-1 by SuperLU, cached per (system, c)."""
+class _PerStep:
+    """A matrix derived from the system's A and a step constant, built once per (system,
+    constant) and kept: `make(a, c)` builds it (the LU of I - c A, or I + h A)."""
 
-    def __init__(self):
-        self._key, self._lu = None, None
+    def __init__(self, make):
+        self.make, self._key, self._value = make, None, None
 
-    def solver(self, system, c):
+    def get(self, system, c):
         key = (id(system), float(c))
         if key != self._key:
-            a = system.matrix()
-            self._lu = splu((sp.identity(a.shape[0], format="csc") - c * a).tocsc())
-            self._key = key
-        return self._lu
+            self._value, self._key = self.make(system.matrix(), float(c)), key
+        return self._value
 
 
-class _UpdateMatrix:
-    """I + h A, cached per (system, h): the explicit step as one product, in diagonal (DIA)
-    storage (a grid stencil's few diagonals: 12 % faster than CSR at 1025^2, measured)."""
+def _factorised(a, c):
+    """SuperLU of I - c A."""
+    return splu((sp.identity(a.shape[0], format="csc") - c * a).tocsc())
 
-    def __init__(self):
-        self._key, self._matrix = None, None
 
-    def matrix(self, system, h):
-        key = (id(system), float(h))
-        if key != self._key:
-            a = system.matrix()
-            self._matrix = (sp.identity(a.shape[0], format="csr") + h * a).todia()
-            self._key = key
-        return self._matrix
+def _update(a, h):
+    """I + h A in diagonal (DIA) storage: a grid stencil's few diagonals (12 % faster than
+    CSR at 1025^2, measured)."""
+    return (sp.identity(a.shape[0], format="csr") + h * a).todia()
 
 
 class ThetaMethod(FirstOrderStepper):
@@ -65,13 +59,13 @@ class ThetaMethod(FirstOrderStepper):
     def __init__(self, name: str, theta: float, order: int, family: str):
         self.name, self.theta, self.order, self.family = name, float(theta), order, family
         self.explicit = self.theta == 0.0
-        self._lu, self._update = _Factorised(), _UpdateMatrix()
+        self._lu, self._update = _PerStep(_factorised), _PerStep(_update)
 
     def step(self, field, t, p, h):
         shape, flat = np.shape(p), np.reshape(p, -1)
         if self.theta == 0.0:
-            return (self._update.matrix(field, h) @ flat).reshape(shape)
-        lu = self._lu.solver(field, self.theta * h)
+            return (self._update.get(field, h) @ flat).reshape(shape)
+        lu = self._lu.get(field, self.theta * h)
         if self.theta != 1.0:
             flat = flat + ((1.0 - self.theta) * h) * (field.matrix() @ flat)
         return lu.solve(flat).reshape(shape)
@@ -106,12 +100,12 @@ class SparseImplicitEuler(Integrator):
                                                  "implicit Euler (sparse LU)", False, False)
 
     def __init__(self):
-        self._lu = _Factorised()
+        self._lu = _PerStep(_factorised)
 
     def _step(self, system, t, state, h, shift):
         x, v = state
         shape = np.shape(x)
-        x1 = self._lu.solver(system, h * h).solve(np.reshape(x + h * v, -1))
+        x1 = self._lu.get(system, h * h).solve(np.reshape(x + h * v, -1))
         v1 = np.reshape(v, -1) + h * (system.matrix() @ x1)
         return x1.reshape(shape), v1.reshape(shape)
 
@@ -123,14 +117,14 @@ class SparseImplicitMidpoint(Integrator):
                                                  "implicit midpoint (sparse LU)", False, True)
 
     def __init__(self):
-        self._lu = _Factorised()
+        self._lu = _PerStep(_factorised)
 
     def _step(self, system, t, state, h, shift):
         x, v = state
         shape, a = np.shape(x), system.matrix()
         xf, vf = np.reshape(x, -1), np.reshape(v, -1)
         ax = a @ xf
-        x1 = self._lu.solver(system, 0.25 * h * h).solve(xf + h * vf + (0.25 * h * h) * ax)
+        x1 = self._lu.get(system, 0.25 * h * h).solve(xf + h * vf + (0.25 * h * h) * ax)
         v1 = vf + (0.5 * h) * (ax + a @ x1)
         return x1.reshape(shape), v1.reshape(shape)
 

@@ -2,7 +2,6 @@
 in dt at its order and in h at order 2 (order 4 for FTCS at r = 1/6 in 1D), and the explicit
 stability limits are r = 1/(2d), measured by `refsim stress`."""
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -88,13 +87,8 @@ def test_the_slides_1d_bound_diverges_in_2d_but_not_in_1d():
 
 
 @pytest.mark.parametrize("variant,limit", [("1d", 0.5), ("2d", 0.25), ("3d", 1.0 / 6)])
-def test_stress_measures_the_ftcs_limit_one_over_2d(variant, limit, tmp_path):
-    from refsim.stress import limits_table, options
-    args = SimpleNamespace(case="heat_mode", variant=variant, engine=["refsim"],
-                           integrator=["explicit_euler", "implicit_euler"], periods=None,
-                           dt=None, quick=False, out=str(tmp_path))
-    opts = options(args)
-    table = limits_table(opts, opts["probe"]).set_index("integrator")
+def test_stress_measures_the_ftcs_limit_one_over_2d(variant, limit, stress_limits):
+    table = stress_limits("heat_mode", variant, ["explicit_euler", "implicit_euler"])
     assert table.loc["explicit_euler", "theory"] == pytest.approx(limit, rel=1e-12)
     assert table.loc["explicit_euler", "agrees"]
     assert table.loc["explicit_euler", "measured"] >= limit  # the criterion lands above it

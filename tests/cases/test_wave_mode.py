@@ -2,7 +2,6 @@
 obeys the discrete dispersion relation and is exact at C = 1 in 1D; orders in dt; the Courant
 limits 1 and 1/sqrt 2 measured by `refsim stress`."""
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -64,13 +63,8 @@ def test_time_error_has_the_scheme_order(integrator, order):
 
 
 @pytest.mark.parametrize("variant,limit", [("1d", 1.0), ("2d", 1 / math.sqrt(2))])
-def test_stress_measures_the_courant_limit(variant, limit, tmp_path):
-    from refsim.stress import limits_table, options
-    args = SimpleNamespace(case="wave_mode", variant=variant, engine=["refsim"],
-                           integrator=["stormer_verlet", "implicit_midpoint"], periods=None,
-                           dt=None, quick=False, out=str(tmp_path))
-    opts = options(args)
-    table = limits_table(opts, opts["probe"]).set_index("integrator")
+def test_stress_measures_the_courant_limit(variant, limit, stress_limits):
+    table = stress_limits("wave_mode", variant, ["stormer_verlet", "implicit_midpoint"])
     assert table.loc["stormer_verlet", "theory"] == pytest.approx(limit, rel=1e-12)
     assert table.loc["stormer_verlet", "agrees"]
     assert math.isinf(table.loc["implicit_midpoint", "measured"])
