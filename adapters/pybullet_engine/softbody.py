@@ -8,8 +8,8 @@ examples/SharedMemory/PhysicsServerCommandProcessor.cpp) and measured here:
   (default 0.1) adds links between nodes two links apart (measured: a 6x6 cloth off by 1.2e-3 m
   at 0.3 s): the adapter passes 0.
 - links: the unique edges of the .obj's triangles (btSoftBodyHelpers::CreateFromTriMesh), one
-  node per vertex in file order. A network edge in no triangle goes in as the degenerate
-  triangle (i, j, j): its extra self-link (j, j) has zero length and exerts nothing.
+  node per vertex in file order. An edge in no triangle (a rope, a structural-only grid) is
+  refused: as a degenerate triangle (i, j, j) it crashed pybullet 3.2.7 (double free, measured).
 - stretch force per link: k (d - r d/|d|), k = springElasticStiffness in N/m per link (not
   scaled by rest length), the same k on every link; damping c ((v2 - v1).u) u along the link
   (springDampingAllDirections = 0), the same c on every link.
@@ -97,12 +97,15 @@ def _topology_reason(net, who) -> str | None:
         return f"{who}: duplicate edges (the mesh holds each link once)"
     if len(np.unique(pairs)) != len(net):
         return f"{who}: every node must be on an edge (a vertex in no triangle is dropped)"
+    lone = len(net.edges) - covered_edges(len(net), net.edges)[1].sum()
+    if lone:
+        return (f"{who}: links come from mesh triangles; {lone} edges lie in no triangle of the "
+                "network (a degenerate triangle crashed pybullet 3.2.7)")
     return None
 
 
-def triangles(n, edges) -> np.ndarray:
-    """(t, 3) vertex triples whose edges are exactly `edges`: every 3-clique of the edge graph,
-    plus a degenerate (i, j, j) for each edge in no clique."""
+def covered_edges(n, edges) -> tuple[np.ndarray, np.ndarray]:
+    """(every 3-clique of the edge graph (t, 3), whether each edge lies in one (m,))."""
     pairs = np.sort(edges, axis=1)
     upper = sp.csr_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     common = upper[pairs[:, 0]].multiply(upper[pairs[:, 1]]).tocoo()  # k > j, joined to i and j
@@ -112,8 +115,15 @@ def triangles(n, edges) -> np.ndarray:
         in_clique = np.concatenate([cliques[:, [0, 1]], cliques[:, [1, 2]], cliques[:, [0, 2]]])
         keys = in_clique[:, 0] * n + in_clique[:, 1]
         covered = np.isin(pairs[:, 0] * n + pairs[:, 1], keys)
-    lone = pairs[~covered]
-    return np.concatenate([cliques.reshape(-1, 3), np.column_stack([lone, lone[:, 1]])])
+    return cliques.reshape(-1, 3), covered
+
+
+def triangles(n, edges) -> np.ndarray:
+    """(t, 3) vertex triples whose sides are exactly `edges` (every edge in a 3-clique)."""
+    cliques, covered = covered_edges(n, edges)
+    if not covered.all():
+        raise ValueError("network.edges: every edge must lie in a triangle for pybullet")
+    return cliques
 
 
 def write_obj(path, positions, tris) -> None:
@@ -132,7 +142,11 @@ def load_network(p, cid, scene) -> int:
     node_mass = float(net.masses[free][0]) if free.any() else float(net.masses[0])
     with tempfile.TemporaryDirectory(prefix="refsim_pb_net_") as tmp:
         path = os.path.join(tmp, "network.obj")
-        write_obj(path, rest_scale(net) * net.positions, triangles(len(net), net.edges))
+        # the mesh at the rest geometry (capture-step force ~0), but never all in one point
+        # (a mesh of coincident vertices segfaulted pybullet 3.2.7; the capture force is 0
+        # there anyway, d = 0 giving u = 0)
+        scale = rest_scale(net) or 1.0
+        write_obj(path, scale * net.positions, triangles(len(net), net.edges))
         body = p.loadSoftBody(
             path, mass=node_mass * len(net), useMassSpring=1, useBendingSprings=0,
             springBendingStiffness=0.0,  # not 0.1: the server ignores useBendingSprings

@@ -6,7 +6,7 @@ Stepper: pybullet's one deformable step, offered as `symplectic_euler` (what it 
 damping: kick v += h a(x_n), drift x += h v); edge damping, when present, is solved implicitly
 (IMEX), and settings say so. The other network steppers are refused with that reason.
 Refused networks (softbody.softbody_reason): hinges/dihedrals, air drag, initial velocities,
-per-edge stiffness/damping or per-node masses that differ, rest lengths that are not a scaled
+per-edge stiffness/damping or per-node masses that differ, edges in no triangle, rest lengths that are not a scaled
 copy of the initial lengths.
 Observes x of every node (getMeshData, float64) and v = (x_n - x_{n-1}) / h.
 """
@@ -84,8 +84,8 @@ class PybulletNetworkSim(Sim):
             "pinned": "createSoftBodyAnchor to the world (node mass 0: exact)",
             "rest_lengths": (f"captured: {rest_scale(net):g} x initial lengths, by one "
                              f"{CAPTURE_DT:g} s step at that geometry with gravity off"),
-            "mesh": ".obj of the network's 3-cliques (+ degenerate (i, j, j) for lone edges), "
-                    "vertices in node order, written to a temporary directory",
+            "mesh": ".obj of the network's 3-cliques (every edge in one), vertices in node "
+                    "order, written to a temporary directory",
             "velocity_clamp_norm_m_per_s": diagonal / dt,
             "velocity_clamp_norm_note": ("|v| <= bounding-box diagonal / h per node before the "
                                          "drift (initial diagonal shown; pybullet uses the "
