@@ -6,7 +6,8 @@ Stepper: pybullet's one deformable step, offered as `symplectic_euler` (what it 
 damping: kick v += h a(x_n), drift x += h v); edge damping, when present, is solved implicitly
 (IMEX), and settings say so. The other network steppers are refused with that reason.
 Refused networks (softbody.softbody_reason): hinges/dihedrals, air drag, initial velocities,
-per-edge stiffness/damping or per-node masses that differ, edges in no triangle, rest lengths that are not a scaled
+per-edge stiffness/damping or per-node masses that differ, edges in no
+triangle, rest lengths that are not a scaled
 copy of the initial lengths.
 Observes x of every node (getMeshData, float64) and v = (x_n - x_{n-1}) / h.
 """
