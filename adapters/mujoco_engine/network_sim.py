@@ -86,7 +86,7 @@ class MujocoNetworkSim(MujocoSim):
                            "stretch edge a spatial tendon between two sites with stiffness k, "
                            "springlength L0, damping c: exactly the in-house stretch model",
             "nodes": len(net), "free_nodes": int(self.free.sum()),
-            "pinned": int(len(net.pinned)), "tendons": int(len(self.edges)),
+            "pinned": len(net.pinned), "tendons": len(self.edges),
             "edges_dropped": int(len(net.edges) - len(self.edges)),
             "edges_dropped_reason": "both ends pinned: exerts nothing on a free node",
             "tendon": "spatial, two sites: force -k (L - L0) - c dL/dt along it; "

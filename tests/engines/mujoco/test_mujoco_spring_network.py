@@ -69,8 +69,8 @@ def membrane_mode(free=4, k=100.0, m=0.01, amp=0.01, p=1, q=2):
     ring = np.flatnonzero((i == 0) | (j == 0) | (i == n - 1) | (j == n - 1))
     net = SpringNetwork(positions=x, masses=m, edges=edges, stiffness=k, rest_length=0.0,
                         pinned=ring)
-    s = lambda r: np.sin(r * np.pi / (2 * (n - 1))) ** 2  # noqa: E731
-    omega = 2 * np.sqrt(k / m) * np.sqrt(s(p) + s(q))
+    half_angle = np.array([p, q]) * np.pi / (2 * (n - 1))
+    omega = 2 * np.sqrt(k / m) * np.sqrt(np.sum(np.sin(half_angle) ** 2))
     return Scene(networks=(net,), gravity=(0.0, 0.0, 0.0)), omega
 
 
