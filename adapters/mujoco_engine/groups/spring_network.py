@@ -1,0 +1,101 @@
+"""MuJoCo's spring-network group (cloth, rope, hair as one `SpringNetwork`; mujoco 4.0.0).
+
+Formulation "" ("tendon", the only one): free nodes are 3-slide bodies, pinned nodes world
+sites, stretch edges spatial tendons with stiffness k, springlength L0 and damping c, air drag
+joint damping (adapters/mujoco_engine/network_mjcf.py): exactly the in-house stretch model.
+Hinges and dihedrals cannot be tendons: such scenes are refused (BENDING_REASON).
+
+Not offered, with the reasons (mujoco 4.0.0, its changelog and measured):
+- "cable" (composite type="cable" + the mujoco.elasticity.cable plugin): both were removed in
+  mujoco 4.0.0 (changelog, Deformables, breaking change 9: superseded by 1D flexcomp with
+  elasticity); the wheel ships no libelasticity plugin;
+- "flex" (flexcomp dim=1/2 with edge stiffness/damping): one stiffness, damping and rest
+  configuration (qpos0) per flex, so it represents a network only with uniform k, c and L0 =
+  initial lengths, and edge stiffness is refused under `discrete` (changelog 13); not built.
+
+Integrators (measured in tests/engines/mujoco/test_mujoco_spring_network.py):
+- symplectic_euler -> Euler with eulerdamp disabled: the in-house step to round-off;
+- rk4 -> RK4: the in-house RK4 to round-off;
+- discrete (MuJoCo's own name, offered besides): (M + h D + h^2 K) a = f - h K v, v += h a,
+  q += h v with D = sum c u u^T + c_air I and K = sum k u u^T only, the tendon's stiffness along
+  itself: the geometric stiffness (f / L)(I - u u^T) of each edge is left out. Baraff-Witkin
+  keeps it, so discrete is NOT refsim's baraff_witkin (they differ by 6.7e-2 m/s in 20 steps
+  on a zero-rest-length string); measured equal to a replica of that partial-K step to 5e-16.
+  A tendon whose length equals its springlength EXACTLY adds no stiffness to K (the closed
+  deadband [L0, L0] of MuJoCo's two-value springlength): a cloth built at its rest lengths
+  takes its first discrete step without K (measured);
+- velocity_verlet and baraff_witkin are refused with those reasons.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+from adapters.common.spring_network import NETWORK_INTEGRATORS, claims, scene_reason
+from refsim.engine import ModelGroup
+
+WHO = "mujoco adapter"
+OWN_INTEGRATORS = ("discrete",)
+OFFERED = NETWORK_INTEGRATORS + OWN_INTEGRATORS
+RUNS = ("symplectic_euler", "rk4", "discrete")
+BENDING_REASON = (
+    f"{WHO} spring networks: hinges and dihedrals cannot be tendons (formulation \"tendon\" "
+    "has stretch springs only), and the cable plugin and composite element that modelled bending "
+    "were removed in mujoco 4.0.0")
+REFUSED = {
+    "velocity_verlet": f"{WHO}: MuJoCo has no velocity Verlet integrator (Euler, RK4, "
+                       "implicit, implicitfast, discrete)",
+    "baraff_witkin": f"{WHO}: MuJoCo's closest step, discrete, linearises backward Euler with "
+                     "only the tendon stiffness k u u^T along each edge (no geometric "
+                     "stiffness (f/L)(I - u u^T)), so it is not Baraff-Witkin: run it as "
+                     "'discrete'",
+}
+TREATED_IMPLICITLY = {
+    "symplectic_euler": "nothing (kick then drift; eulerdamp disabled, so tendon and joint "
+                        "damping are explicit too)",
+    "rk4": "nothing (explicit)",
+    "discrete": "tendon damping c u u^T, joint damping c_air I and tendon stiffness k u u^T "
+                "(h D + h^2 K added to M); gravity and the geometric stiffness (f/L)(I - u u^T) "
+                "of each edge stay explicit; a tendon exactly at its rest length adds no "
+                "stiffness (springlength deadband [L0, L0] closed: measured)",
+}
+_NOTES = {
+    "symplectic_euler": "semi-implicit Euler, kick then drift (v += h a(x, v); q += h v), "
+                        "eulerdamp disabled: the in-house symplectic_euler",
+    "rk4": "classical 4-stage Runge-Kutta on (q, v): the in-house rk4",
+    "discrete": "(M + h D + h^2 K) a = f(q, v) - h K v, v += h a, q += h v with D, K the "
+                "damping and tendon-stiffness derivatives (no geometric stiffness): a "
+                "linearised backward Euler that is not Baraff-Witkin; unconditionally stable "
+                "along the edges, damps like backward Euler",
+}
+
+
+def network_methods() -> dict:
+    """The engine's Method records with spring-network notes."""
+    from ..methods import METHODS
+    return {name: replace(METHODS[name], note=_NOTES[name]) for name in RUNS}
+
+
+def supports(engine, scene, integrator):
+    reason = scene_reason(scene, WHO)
+    if reason:
+        return reason
+    net = scene.networks[0]
+    if len(net.hinges) or len(net.dihedrals):
+        return BENDING_REASON
+    return REFUSED.get(integrator)
+
+
+def build(engine, scene, dt, integrator, variant):
+    from ..network_sim import MujocoNetworkSim
+    if integrator not in RUNS:
+        raise ValueError(REFUSED.get(integrator) or
+                         f"mujoco spring-network integrator must be one of {list(RUNS)}, "
+                         f"got {integrator!r}")
+    return MujocoNetworkSim(scene, dt, integrator, network_methods()[integrator],
+                            TREATED_IMPLICITLY[integrator])
+
+
+MODEL_GROUP = ModelGroup(
+    name="spring_network", build=build, claims=claims, parts=frozenset({"networks"}),
+    features=frozenset({"networks", "gravity", "drag"}), supports=supports,
+    variants=lambda engine, scene: ("",), integrators=OFFERED)
