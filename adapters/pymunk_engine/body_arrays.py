@@ -25,6 +25,7 @@ class BodyArrays:
         self._batch, self.space, self.count = batch, space, count
         self._read_buffer, self._write_buffer = batch.Buffer(), batch.Buffer()
         self._written = None  # keeps the array behind the write buffer alive
+        self._flag_cache = {}
         ids = self._ids()
         expected = [b.id for b in space.bodies if b.body_type == pymunk.Body.DYNAMIC]
         if ids[:count] != expected[:count] or len(expected) != count:
@@ -39,6 +40,14 @@ class BodyArrays:
         return list(memoryview(buf.int_buf()).cast("P"))
 
     def _fields(self, names):
+        """(the BodyFields flag, the names in buffer order), cached: enum.Flag arithmetic
+        costs tens of microseconds a call, more than the batched copy itself."""
+        key = tuple(names)
+        if key not in self._flag_cache:
+            self._flag_cache[key] = self._make_fields(key)
+        return self._flag_cache[key]
+
+    def _make_fields(self, names):
         unknown = set(names) - set(WIDTHS)
         if unknown:
             raise ValueError(f"body fields must be among {list(ORDER)}, got {sorted(unknown)}")

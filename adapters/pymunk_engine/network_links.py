@@ -122,6 +122,8 @@ class LinkBodies:
         self.mass = a + b
         self.centre = (a[:, None] * x2[self.inner] + b[:, None] * x2[outer]) / self.mass[:, None]
         self.r_in, self.r_out = x2[self.inner] - self.centre, x2[outer] - self.centre
+        self._r_in_c = self.r_in[:, 0] + 1j * self.r_in[:, 1]
+        self._r_out_c = self.r_out[:, 0] + 1j * self.r_out[:, 1]
         self.moment = a * b * np.sum((x2[outer] - x2[self.inner]) ** 2, axis=1) / self.mass
         dv, dx = v2[outer] - v2[self.inner], x2[outer] - x2[self.inner]
         self.omega = _cross(dx, dv) / np.sum(dx * dx, axis=1)
@@ -136,14 +138,18 @@ class LinkBodies:
         return pos + r, vel + omega[:, None] * _perp(r)
 
     def drag_loads(self, pos, angle, vel, omega, c_air):
-        """(force (k, 2), torque (k,)) of -c_air v at each link's nodes, by share."""
-        cos, sin = np.cos(angle)[:, None], np.sin(angle)[:, None]
-        rot = lambda r: np.concatenate([cos * r[:, :1] - sin * r[:, 1:],  # noqa: E731
-                                        sin * r[:, :1] + cos * r[:, 1:]], axis=1)
-        r_in, r_out = rot(self.r_in), rot(self.r_out)
-        f_in = -c_air * self.share_in[:, None] * (vel + omega[:, None] * _perp(r_in))
-        f_out = -c_air * self.share_out[:, None] * (vel + omega[:, None] * _perp(r_out))
-        return f_in + f_out, _cross(r_in, f_in) + _cross(r_out, f_out)
+        """(force (k, 2), torque (k,)) of -c_air v at each link's nodes, by share. Plane
+        vectors as complex numbers: R r = exp(i angle) r, w perp(r) = i w r,
+        cross(r, f) = Im(conj(r) f)."""
+        turn = np.exp(1j * angle)
+        r_in, r_out = turn * self._r_in_c, turn * self._r_out_c
+        v_c = vel[:, 0] + 1j * vel[:, 1]
+        spin = 1j * omega
+        f_in = -c_air * self.share_in * (v_c + spin * r_in)
+        f_out = -c_air * self.share_out * (v_c + spin * r_out)
+        force = f_in + f_out
+        torque = (np.conj(r_in) * f_in + np.conj(r_out) * f_out).imag
+        return np.stack([force.real, force.imag], axis=1), torque
 
 
 class PymunkLinkChainSim(Sim):
