@@ -21,7 +21,7 @@ class BodyArrays:
     """Batched access to the `count` dynamic bodies of `space` (added in the order wanted)."""
 
     def __init__(self, pymunk, space, count: int):
-        import pymunk.batch as batch
+        from pymunk import batch
         self._batch, self.space, self.count = batch, space, count
         self._read_buffer, self._write_buffer = batch.Buffer(), batch.Buffer()
         self._written = None  # keeps the array behind the write buffer alive

@@ -17,8 +17,12 @@ hinges on anything but a chain pinned at its root (the reason says which).
 """
 from __future__ import annotations
 
-from adapters.common.spring_network import (NETWORK_INTEGRATORS, claims, integrator_reason,
-                                            scene_reason)
+from adapters.common.spring_network import (
+    NETWORK_INTEGRATORS,
+    claims,
+    integrator_reason,
+    scene_reason,
+)
 from refsim.engine import ModelGroup
 
 from ..network_links import RIGID_LINKS, links_reason
