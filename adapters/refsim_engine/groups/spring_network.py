@@ -1,7 +1,8 @@
 """The in-house engine's spring-network group (slides 000-002): cloth, rope and hair as one
 `SpringNetwork` (stretch springs with damping, hinge and dihedral bending, air drag, gravity,
 pinned nodes; refsim.models.spring_network) advanced by refsim's own steppers on the free
-nodes: symplectic Euler, velocity Verlet, RK4 and Baraff-Witkin.
+nodes: symplectic Euler, velocity Verlet, RK4 and Baraff-Witkin, and the drift-kick symplectic
+Euler (`symplectic_euler_dk`), pymunk's own step, so pymunk's rows have an in-house twin.
 
 Formulations (engine variants) choose Baraff-Witkin's linear solve where it is sparse (a state
 of SPARSE_MIN entries or more): "" = SuperLU (scipy.sparse.linalg.spsolve), "cg" = conjugate
@@ -24,6 +25,7 @@ from refsim.models.spring_network import NetworkSystem
 
 from ..stepped import SteppedSim
 
+INTEGRATORS = NETWORK_INTEGRATORS + ("symplectic_euler_dk",)
 CG_RTOL = 1e-10  # relative residual of Baraff-Witkin's CG: well below every case's tolerance
 FORMULATIONS = {"": "sparse direct (SuperLU)", "cg": f"conjugate gradient, rtol {CG_RTOL:g}"}
 
@@ -57,7 +59,7 @@ class NetworkSim(SteppedSim):
 
 
 def supports(engine, scene, integrator):
-    return scene_reason(scene, "refsim") or integrator_reason(integrator)
+    return scene_reason(scene, "refsim") or integrator_reason(integrator, INTEGRATORS)
 
 
 def variants(engine, scene):
@@ -72,4 +74,4 @@ def build(engine, scene, dt, integrator, variant):
 MODEL_GROUP = ModelGroup(name="spring_network", build=build, claims=claims,
                          parts=frozenset({"networks"}),
                          features=frozenset({"networks", "gravity", "drag"}),
-                         supports=supports, variants=variants, integrators=NETWORK_INTEGRATORS)
+                         supports=supports, variants=variants, integrators=INTEGRATORS)
