@@ -30,23 +30,23 @@ net_t = ti.types.argpack(mass=nd_f64, inv_m=nd_f64, gravity=vec3, drag=f64, body
 
 
 @ti.func
-def spring_axis(P: ti.template(), x: ti.template(), v: ti.template(), s):
-    """(d, dv, |d|, u) of spring s (u = 0 where |d| = 0)."""
-    i, j = P.body[s], P.other[s]
+def spring_axis(P: ti.template(), x: ti.template(), v: ti.template(), s, off):
+    """(dv, |d|, u) of spring s, nodes at x[off + i] (u = 0 where |d| = 0)."""
+    i, j = P.body[s] + off, P.other[s]
     d, dv = x[i] - P.anchor[s], v[i]
     if j >= 0:
-        d, dv = x[i] - x[j], v[i] - v[j]
+        d, dv = x[i] - x[j + off], v[i] - v[j + off]
     length = ti.sqrt(d.dot(d))
     u = vec3(0.0, 0.0, 0.0)
     if length > 0.0:
         u = d / length
-    return d, dv, length, u
+    return dv, length, u
 
 
 @ti.func
-def spring_force(P: ti.template(), x: ti.template(), v: ti.template(), s):
+def spring_force(P: ti.template(), x: ti.template(), v: ti.template(), s, off):
     """Force of spring s on its body end: -k (|d| - L0) u - c (dv . u) u."""
-    _, dv, length, u = spring_axis(P, x, v, s)
+    dv, length, u = spring_axis(P, x, v, s, off)
     f = -(P.k[s] * (length - P.rest[s])) * u
     if P.damped:
         f = f - (P.c[s] * dv.dot(u)) * u
@@ -54,18 +54,20 @@ def spring_force(P: ti.template(), x: ti.template(), v: ti.template(), s):
 
 
 @ti.func
-def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template()):
-    """a = (f_springs - drag v) / m + g on every free node."""
-    for i in range(x.shape[0]):
-        a[i] = vec3(0.0, 0.0, 0.0)
+def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(), off):
+    """a = (f_springs - drag v) / m + g on every free node; node i at x[off + i], v[off + i],
+    a[off + i] (RK4 keeps its four stages in one array)."""
+    count = P.mass.shape[0]
+    for i in range(count):
+        a[off + i] = vec3(0.0, 0.0, 0.0)
     for s in range(P.body.shape[0]):
-        a[P.body[s]] += spring_force(P, x, v, s)
+        a[P.body[s] + off] += spring_force(P, x, v, s, off)
     for s in range(P.body.shape[0]):
         j = P.other[s]
         if j >= 0:
-            a[j] += -spring_force(P, x, v, s)
-    for i in range(x.shape[0]):
-        a[i] = (a[i] - P.drag * v[i]) * P.inv_m[i] + P.gravity
+            a[j + off] += -spring_force(P, x, v, s, off)
+    for i in range(count):
+        a[off + i] = (a[off + i] - P.drag * v[off + i]) * P.inv_m[i] + P.gravity
 
 
 @ti.kernel
@@ -73,7 +75,7 @@ def start(P: net_t, x: nd_vec3, v: nd_vec3, a: nd_vec3):
     """a = a(x, v): velocity Verlet's carried acceleration."""
     ti.loop_config(serialize=True)
     for _ in range(1):
-        accel(P, x, v, a)
+        accel(P, x, v, a, 0)
 
 
 @ti.kernel
@@ -81,56 +83,59 @@ def symplectic_euler(P: net_t, x: nd_vec3, v: nd_vec3, a: nd_vec3, h: f64, n: i3
     """Kick-drift: v += h a(x, v); x += h v."""
     ti.loop_config(serialize=True)
     for _ in range(n):
-        accel(P, x, v, a)
+        accel(P, x, v, a, 0)
         for i in range(x.shape[0]):
             v[i] = v[i] + h * a[i]
             x[i] = x[i] + h * v[i]
 
 
 @ti.kernel
-def velocity_verlet(P: net_t, x: nd_vec3, v: nd_vec3, a: nd_vec3, vh: nd_vec3, h: f64,
-                    n: i32):
-    """Half kick, drift, a(x1, vh), half kick; once more with v1 when forces depend on v."""
+def velocity_verlet(P: net_t, x: nd_vec3, v: nd_vec3, a: nd_vec3, vh: nd_vec3, w: nd_vec3,
+                    h: f64, n: i32):
+    """Half kick, drift, a(x1, vh), half kick; once more with a(x1, v1) when forces depend on
+    v. The velocity a is taken at is copied into w first (one inlined force sweep, not two:
+    half the compile time; a copy changes no bit)."""
     ti.loop_config(serialize=True)
     for _ in range(n):
         for i in range(x.shape[0]):
             vh[i] = v[i] + (0.5 * h) * a[i]
             x[i] = x[i] + h * vh[i]
-        accel(P, x, vh, a)
-        for i in range(x.shape[0]):
-            v[i] = vh[i] + (0.5 * h) * a[i]
-        if P.velocity_dependent:
-            accel(P, x, v, a)
+            w[i] = vh[i]
+        for sweep in range(1 + P.velocity_dependent):
+            if sweep == 1:
+                for i in range(x.shape[0]):
+                    w[i] = v[i]
+            accel(P, x, w, a, 0)
             for i in range(x.shape[0]):
                 v[i] = vh[i] + (0.5 * h) * a[i]
 
 
-@ti.func
-def stage(x: ti.template(), v: ti.template(), xs: ti.template(), vs: ti.template(),
-          ks: ti.template(), ka: ti.template(), c):
-    """X = x + c K_x, V = v + c K_v (refsim's stage sums, one coupling each)."""
-    for i in range(x.shape[0]):
-        xs[i] = x[i] + c * ks[i]
-        vs[i] = v[i] + c * ka[i]
-
-
 @ti.kernel
-def rk4(P: net_t, x: nd_vec3, v: nd_vec3, xs: nd_vec3, v2: nd_vec3, v3: nd_vec3, v4: nd_vec3,
-        a1: nd_vec3, a2: nd_vec3, a3: nd_vec3, a4: nd_vec3, h: f64, n: i32):
-    """Classical RK4 on (x, v): stages X_i = x + (a_ij h) V_j, V_i = v + (a_ij h) A_j."""
+def rk4(P: net_t, x: nd_vec3, v: nd_vec3, xs: nd_vec3, vs: nd_vec3, acc: nd_vec3, h: f64,
+        n: i32):
+    """Classical RK4 on (x, v): stage s (X_1 = x, V_1 = v) X_s = x + (a_s h) V_s-1,
+    V_s = v + (a_s h) A_s-1, A_s = a(X_s, V_s), a = (1/2, 1/2, 1); the four stages at offsets
+    s n of xs, vs, acc (one inlined force sweep, not four); then x += (b_s h) V_s,
+    v += (b_s h) A_s summed in stage order, b = (1/6, 1/3, 1/3, 1/6)."""
+    m = x.shape[0]
     ti.loop_config(serialize=True)
     for _ in range(n):
-        accel(P, x, v, a1)
-        stage(x, v, xs, v2, v, a1, 0.5 * h)
-        accel(P, xs, v2, a2)
-        stage(x, v, xs, v3, v2, a2, 0.5 * h)
-        accel(P, xs, v3, a3)
-        stage(x, v, xs, v4, v3, a3, 1.0 * h)
-        accel(P, xs, v4, a4)
+        for st in range(4):
+            off, back = st * m, (st - 1) * m
+            if st == 0:
+                for i in range(m):
+                    xs[i], vs[i] = x[i], v[i]
+            else:
+                ha = (1.0 if st == 3 else 0.5) * h
+                for i in range(m):
+                    xs[off + i] = x[i] + ha * vs[back + i]
+                    vs[off + i] = v[i] + ha * acc[back + i]
+            accel(P, xs, vs, acc, off)
         h6, h3 = (1.0 / 6.0) * h, (1.0 / 3.0) * h
-        for i in range(x.shape[0]):
-            x[i] = x[i] + h6 * v[i] + h3 * v2[i] + h3 * v3[i] + h6 * v4[i]
-            v[i] = v[i] + h6 * a1[i] + h3 * a2[i] + h3 * a3[i] + h6 * a4[i]
+        for i in range(m):
+            x[i] = x[i] + h6 * vs[i] + h3 * vs[m + i] + h3 * vs[2 * m + i] + h6 * vs[3 * m + i]
+            v[i] = v[i] + h6 * acc[i] + h3 * acc[m + i] + h3 * acc[2 * m + i] + \
+                h6 * acc[3 * m + i]
 
 
 # ----- Baraff-Witkin ----------------------------------------------------------------------------
@@ -138,11 +143,11 @@ def rk4(P: net_t, x: nd_vec3, v: nd_vec3, xs: nd_vec3, v2: nd_vec3, v3: nd_vec3,
 def system(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(),
            kv: ti.template(), blocks: ti.template(), rhs: ti.template(), h):
     """Blocks A_s = -h D_s - h^2 K_s and rhs = h (m a + h K v), flat (3 n_free,)."""
-    accel(P, x, v, a)
+    accel(P, x, v, a, 0)
     for i in range(x.shape[0]):
         kv[i] = vec3(0.0, 0.0, 0.0)
     for s in range(P.body.shape[0]):
-        _, _, length, u = spring_axis(P, x, v, s)
+        _, length, u = spring_axis(P, x, v, s, 0)
         uu = u.outer_product(u)
         ratio = 0.0
         if length > 0.0:

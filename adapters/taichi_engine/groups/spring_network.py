@@ -125,11 +125,11 @@ class NetworkSim(Sim):
         elif name == "velocity_verlet":
             self.a = np.zeros((self.n_free, 3))  # carried between calls: a(x0, v0) first
             nk.start(self.pack, self.x, self.v, self.a)
-            vh = to_taichi(np.zeros((self.n_free, 3)))
+            vh, w = self._scratch(2)
             self.advance = lambda n: nk.velocity_verlet(self.pack, self.x, self.v, self.a, vh,
-                                                        self.dt, n)
+                                                        w, self.dt, n)
         elif name == "rk4":
-            scratch = self._scratch(8)
+            scratch = [to_taichi(np.zeros((4 * self.n_free, 3))) for _ in range(3)]
             self.advance = lambda n: nk.rk4(self.pack, self.x, self.v, *scratch, self.dt, n)
         else:
             self.bw = BaraffWitkinSolve(self)
