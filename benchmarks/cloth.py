@@ -61,6 +61,7 @@ def refsim_rows(scene, n, repeats):
     """The in-house step's parts: assembly, SuperLU solve, CG solve, fill-in."""
     import scipy.sparse as sp
     from scipy.sparse.linalg import cg, splu, spsolve
+
     from refsim.models.spring_network import NetworkSystem
     net = scene.networks[0]
     system = NetworkSystem(net, scene.gravity, scene.linear_drag)

@@ -73,8 +73,8 @@ def variants(engine, scene):
 
 def network_pack(net, gravity, drag):
     """The kernels' argpack of a network on its free nodes (and the free mask)."""
-    from ..network_kernels import net_t
     from ..kernel_types import vec3
+    from ..network_kernels import net_t
     free = free_mask(net)
     springs, _ = stretch_springs(net)
     mass = np.asarray(net.masses, float)[free]
@@ -160,7 +160,7 @@ class NetworkSim(Sim):
         out = {"integrator": {**integrator, "native": NATIVE[self.integrator]},
                "dtype": "float64", "threads": THREADS, **effective_config(),
                "model": {"nodes": len(self.net), "free_nodes": self.n_free,
-                         "pinned": int(len(self.net.pinned)), "stretch_edges": self.n_springs,
+                         "pinned": len(self.net.pinned), "stretch_edges": self.n_springs,
                          "terms": ["stretch"], "edge_to_pinned_node": "spring to a fixed anchor"},
                "time_loop": ("one Python iteration per step (a solve between launches)"
                              if self.integrator == "baraff_witkin" else
