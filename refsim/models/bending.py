@@ -54,6 +54,14 @@ def _dot(a, b):
     return np.einsum("...i,...i->...", a, b)
 
 
+def _cross(a, b):
+    """a x b over the last axis (np.cross's axis handling costs more than the product on
+    the small arrays of a rope)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _sin_minus_t_cos_over_t3(t):
     """(sin t - t cos t) / t^3, 1/3 at t = 0: the series for |t| <= 1, directly beyond."""
     t2 = t * t
@@ -105,6 +113,8 @@ class BlockPattern:
     def scatter(self, per_tuple: np.ndarray) -> np.ndarray:
         """per-tuple node vectors (..., k, p, 3) summed onto nodes: (..., n, 3)."""
         batch = per_tuple.shape[:-3]
+        if not batch:
+            return self.incidence @ per_tuple.reshape(-1, 3)
         flat = np.moveaxis(per_tuple.reshape(batch + (-1, 3)), -2, 0)
         out = self.incidence @ flat.reshape(flat.shape[0], -1)
         return np.moveaxis(out.reshape((self.n,) + batch + (3,)), 0, -2)
@@ -179,16 +189,19 @@ class HingeSet:
 
     def forces(self, x) -> np.ndarray:
         """-grad E on every node, (..., n, 3): -F'(c) grad c mapped onto a, b, c."""
-        e1, e2 = self._edges(x)
+        e1, e2 = self._edges(np.asarray(x, float))
         l1, l2 = np.sqrt(_dot(e1, e1))[..., None], np.sqrt(_dot(e2, e2))[..., None]
         u1, u2 = e1 / l1, e2 / l2
-        c = _dot(u1, u2)[..., None]
-        theta = self.angles(x)
-        first, _ = energy_derivatives(theta, self.theta0, self.k)
-        g1 = -first[..., None] * (u2 - c * u1) / l1  # force conjugate to e1
-        g2 = -first[..., None] * (u1 - c * u2) / l2
-        per_node = np.einsum("pi,...kia->...kpa", EDGE_OF_NODE, np.stack([g1, g2], axis=-2))
-        return self._pattern_once().scatter(per_node)
+        c = _dot(u1, u2)
+        sin = np.sqrt(_dot(*(2 * (_cross(u1, u2),))))
+        theta = np.arctan2(sin, c)
+        first = -self.k / np.sinc(theta / np.pi)  # F'(c) (module doc), theta0 = 0 part
+        if self.theta0.any():
+            first = first + self.k * _safe_div(self.theta0, sin)
+        c, first = c[..., None], first[..., None]
+        g1 = -first * (u2 - c * u1) / l1  # the force conjugate to e1 (on b, minus on a)
+        g2 = -first * (u1 - c * u2) / l2
+        return self._pattern_once().scatter(np.stack([-g1, g1 - g2, g2], axis=-2))
 
     def jacobian(self, x) -> sp.csr_matrix:
         """d forces / dx = -Hess E, (3n, 3n) CSR, for one state x (n, 3)."""
