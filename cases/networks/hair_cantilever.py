@@ -25,7 +25,7 @@ no order in dt exists (order_meaningful False). The transient bound: linearised 
 state z = (x - x*, v) follows z' = A z, so |x - x*|_2 <= sum_k |V_x,k|_2 |c_k| e^(Re lambda_k t)
 (eigenvectors V of A, c = V^-1 z0); t_end is where that bound falls to `settle` L. Tolerance
 (on err_final, the last sample): round-off 8 eps k_s L ||K^-1|| (the equilibrium's response to
-force round-off) plus the bound at t_end, times exp(|lambda| h t_end) for a stepper's own decay
+force round-off) plus the bound at t_end, times exp(|lambda|^2 h t_end) for a stepper's own decay
 of the slowest surviving mode (a one-step method's factor differs from e^(lambda h) by at most
 (|lambda| h)^2 per step). The first phase from straight is nonlinear in `heavy`: the bound is
 the linearised one (the tests check every stepper meets it).
