@@ -192,7 +192,7 @@ class HangingChain(Case):
         """||P S^n P^T||_2 |x0 - x*|_2: the linearised transient after n steps from rest."""
         a, free, _, _ = self.linearised(p)
         b = -self.drag(p) / self._sizes(p)[3] * np.eye(len(a))
-        steps = int(round(self.t_end(p) / dt))
+        steps = round(self.t_end(p) / dt)
         delta = float(np.linalg.norm((self.start_positions(p)
                                       - self.equilibrium_positions(p))[free]))
         if integrator in STEPPERS:

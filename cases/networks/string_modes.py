@@ -37,7 +37,8 @@ from refsim.case import EPS, Case, Param, order_tolerance
 from refsim.models.spring_network import network_potential
 from refsim.scene import Scene
 from refsim.scene.networks import SpringNetwork
-from refsim.stress_search import Criterion, finite_time, theory as oscillator_limit
+from refsim.stress_search import Criterion, finite_time
+from refsim.stress_search import theory as oscillator_limit
 
 from ._linear_steps import STEPPERS, mode_amplitude
 
@@ -131,7 +132,7 @@ class StringModes(Case):
     # -- frequencies --------------------------------------------------------------------------
     def omega(self, p) -> float:
         """w of the released mode (rad/s)."""
-        n, k1, k2 = self._check(p)
+        _, k1, k2 = self._check(p)
         return self._omega(p, (k1,) if p["shape"] == "string" else (k1, k2))
 
     def omega_max(self, p) -> float:

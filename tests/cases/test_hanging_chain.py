@@ -66,7 +66,7 @@ def test_bad_span_names_the_parameter():
 
 def _settle(p, integrator):
     dt = CASE.reference_dt(p)
-    steps = int(round(CASE.t_end(p) / dt))
+    steps = round(CASE.t_end(p) / dt)
     sim = ENGINE.build(CASE.scene(p), dt, integrator, "")
     energies = [CASE.energy(p, {k: np.asarray(v)[None] for k, v in sim.observe().items()})[0]]
     for _ in range(steps):

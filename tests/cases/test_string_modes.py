@@ -20,7 +20,7 @@ STEPPERS = ["symplectic_euler", "velocity_verlet", "rk4", "baraff_witkin"]
 
 
 @pytest.fixture(autouse=True)
-def _registered(monkeypatch):
+def _registered():
     """run_job looks the case up by name: register it for the test (no entry point yet in
     the shared venv's metadata)."""
     from refsim import registry
