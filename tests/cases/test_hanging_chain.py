@@ -1,0 +1,96 @@
+"""hanging_chain: the exact discrete equilibrium closes the chain to round-off and satisfies
+every node's force balance in the in-house model; it converges to the catenary at O(N^-2);
+the in-house engine settles onto it with each of the four steppers within the derived
+transient bound, and its energy does not rise under the drag (the dissipative steppers)."""
+import math
+
+import numpy as np
+import pytest
+
+from cases.networks._chain import catenary_parameter, catenary_sag, chain_equilibrium
+from cases.networks.hanging_chain import CASE, G
+from refsim.models.spring_network import NetworkSystem
+from refsim.registry import get_engine
+
+ENGINE = get_engine("refsim")
+EPS = np.finfo(float).eps
+STEPPERS = ["symplectic_euler", "velocity_verlet", "rk4", "baraff_witkin"]
+
+
+@pytest.mark.parametrize("stiffness", [40.0, 4000.0, math.inf])
+def test_root_find_closes_the_chain_to_round_off(stiffness):
+    eq = chain_equilibrium(np.full(7, 0.0981), 0.125, stiffness, 0.8)
+    # the residual is the sum of 8 link vectors of length <= 0.2 m: a few eps of the span
+    assert eq.residual <= 8 * EPS
+    assert eq.first_vertical == pytest.approx(-3.5 * 0.0981, rel=1e-12)  # symmetric chain
+
+
+@pytest.mark.parametrize("variant", ["default", "stiff"])
+def test_equilibrium_balances_every_node_of_the_in_house_model(variant):
+    p = CASE.variant_params(variant)
+    x_eq = CASE.equilibrium_positions(p)
+    system = NetworkSystem(CASE.network(p, x_eq), (0.0, 0.0, -G), 0.0)
+    x_free = x_eq[system.free].reshape(-1)
+    accel = system.accel(0.0, x_free, np.zeros_like(x_free))
+    # the node positions are stored to eps/2 of the span S per component, so each link's
+    # length |d| to sqrt 3 eps S and its tension k (|d| - l0) to k sqrt 3 eps S; a node sums
+    # two links: |a| <= 2 k sqrt 3 eps S / m (plus the tensions' own rounding, eps T / m)
+    k, m = p["axial_stiffness"] * p["links"] / p["length"], p["mass"] / p["links"]
+    bound = (2 * k * math.sqrt(3) * p["span"] + 2 * CASE.equilibrium(p).tensions.max()) \
+        * EPS / m
+    assert np.max(np.abs(accel)) <= bound
+
+
+def test_discrete_chain_converges_to_the_catenary_at_second_order():
+    """Inextensible links, node masses M / N: the balance is a second-order (central)
+    discretisation of the catenary's, so sag and H err by O(N^-2)."""
+    length, mass, span = 1.0, 0.08, 0.8
+    links = np.array([16, 32, 64, 128])
+    sag_err, h_err = [], []
+    a = catenary_parameter(length, span)
+    for n in links:
+        eq = chain_equilibrium(np.full(n - 1, mass / n * G), length / n, math.inf, span)
+        sag_err.append(abs(-eq.nodes[:, 1].min() - catenary_sag(length, span)))
+        h_err.append(abs(eq.horizontal - mass / length * G * a))
+    for err in (sag_err, h_err):
+        slopes = -np.diff(np.log(err)) / np.diff(np.log(links))
+        assert np.all(np.abs(slopes - 2.0) < 0.05), slopes
+
+
+def test_bad_span_names_the_parameter():
+    with pytest.raises(ValueError, match="span"):
+        chain_equilibrium(np.full(3, 1.0), 0.25, 10.0, 1.5)
+    with pytest.raises(ValueError, match="span"):
+        CASE.scene(CASE.validate({"span": 2.0}))
+
+
+def _settle(p, integrator):
+    dt = CASE.reference_dt(p)
+    steps = round(CASE.t_end(p) / dt)
+    sim = ENGINE.build(CASE.scene(p), dt, integrator, "")
+    energies = [CASE.energy(p, {k: np.asarray(v)[None] for k, v in sim.observe().items()})[0]]
+    for _ in range(steps):
+        sim.step(1)
+        o = sim.observe()
+        energies.append(CASE.energy(p, {k: np.asarray(v)[None] for k, v in o.items()})[0])
+    return o, np.array(energies), dt
+
+
+@pytest.mark.parametrize("integrator", STEPPERS)
+def test_in_house_engine_settles_on_the_exact_equilibrium(integrator):
+    p = CASE.variant_params("default")
+    o, energies, dt = _settle(p, integrator)
+    err = np.max(np.linalg.norm(o["x"] - CASE.equilibrium_positions(p), axis=1))
+    tol, _ = CASE.tolerance(p, integrator, 1, dt)
+    assert err <= tol
+    # the start's deviation is gone to 1e-6 of itself: the bound is not vacuous
+    assert tol < 1e-5 * CASE.motion_scale(p)
+    if integrator != "symplectic_euler":  # its discrete energy oscillates at O(h): no claim
+        # every energy evaluation rounds |E| (~ the gravity term) by a few eps
+        assert np.max(np.diff(energies)) <= 8 * EPS * np.max(np.abs(energies))
+
+
+def test_case_declares_no_order_and_one_dt():
+    p = CASE.variant_params("default")
+    assert CASE.order_meaningful is False and CASE.tolerance_norm == "err_final"
+    assert CASE.dts(p) == [CASE.reference_dt(p)]
