@@ -19,14 +19,6 @@ EPS = np.finfo(float).eps
 STEPPERS = ["symplectic_euler", "velocity_verlet", "rk4", "baraff_witkin"]
 
 
-@pytest.fixture(autouse=True)
-def _registered():
-    """run_job looks the case up by name: register it for the test (no entry point yet in
-    the shared venv's metadata)."""
-    from refsim import registry
-    registry.register("case", "string_modes", "cases.networks.string_modes:CASE")
-
-
 def _run(p, integrator, dt, steps):
     sim = ENGINE.build(CASE.scene(p), dt, integrator, "")
     sim.step(steps)
@@ -121,8 +113,6 @@ def test_stiffest_mode_halves_the_one_spring_limit():
 @pytest.mark.slow
 def test_stress_measures_the_explicit_limits_on_the_stiffest_mode(stress_limits):
     """~30 s: one Sim per y (a network is not a one-body batch)."""
-    from refsim import registry
-    registry.register("case", "string_modes", "cases.networks.string_modes:CASE")
     table = stress_limits("string_modes", "default", STEPPERS)
     factor = CASE.stiffest_factor(CASE.variant_params("default"))
     assert table.loc["velocity_verlet", "theory"] == pytest.approx(2 / factor, rel=1e-12)
