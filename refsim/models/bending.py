@@ -91,24 +91,34 @@ class BlockPattern:
     refsim.models.spring_jacobians.JacobianAssembler). Also scatters per-tuple node forces
     (..., k, p, 3) onto the n nodes with a precomputed sparse incidence matrix."""
 
-    def __init__(self, nodes: np.ndarray, n: int):
+    def __init__(self, nodes: np.ndarray, n: int, free: np.ndarray | None = None):
+        """free (n,) bool: the Jacobian's rows and columns are the free nodes' only (blocks
+        touching a fixed node lose those rows/columns); None: every node."""
         self.n, (k, p) = int(n), nodes.shape
-        dofs = (3 * nodes[:, :, None] + np.arange(3)).reshape(k, 3 * p)
+        index = np.arange(n) if free is None else np.where(free, np.cumsum(free) - 1, -1)
+        self.m = self.n if free is None else int(np.count_nonzero(free))
+        node_index = index[nodes]
+        dofs = (3 * node_index[:, :, None] + np.arange(3)).reshape(k, 3 * p)
         rows = np.broadcast_to(dofs[:, :, None], (k, 3 * p, 3 * p)).reshape(-1)
         cols = np.broadcast_to(dofs[:, None, :], (k, 3 * p, 3 * p)).reshape(-1)
-        keys = rows.astype(np.int64) * (3 * n) + cols
+        self.keep = None if free is None else (rows >= 0) & (cols >= 0)
+        if self.keep is not None:
+            rows, cols = rows[self.keep], cols[self.keep]
+        size = 3 * self.m
+        keys = rows.astype(np.int64) * size + cols
         unique, self.slot = np.unique(keys, return_inverse=True)
-        self.indices = (unique % (3 * n)).astype(np.int32)
-        counts = np.bincount((unique // (3 * n)).astype(np.int64), minlength=3 * n)
+        self.indices = (unique % size).astype(np.int32)
+        counts = np.bincount((unique // size).astype(np.int64), minlength=size)
         self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
         self.nnz = len(unique)
         self.incidence = sp.csr_matrix((np.ones(k * p), (nodes.reshape(-1), np.arange(k * p))),
                                        shape=(n, k * p))
 
     def matrix(self, blocks: np.ndarray) -> sp.csr_matrix:
-        """blocks (k, 3p, 3p) summed into the (3n, 3n) CSR matrix."""
-        data = np.bincount(self.slot, weights=blocks.reshape(-1), minlength=self.nnz)
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=(3 * self.n,) * 2)
+        """blocks (k, 3p, 3p) summed into the (3m, 3m) CSR matrix (m: the kept nodes)."""
+        values = blocks.reshape(-1) if self.keep is None else blocks.reshape(-1)[self.keep]
+        data = np.bincount(self.slot, weights=values, minlength=self.nnz)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(3 * self.m,) * 2)
 
     def scatter(self, per_tuple: np.ndarray) -> np.ndarray:
         """per-tuple node vectors (..., k, p, 3) summed onto nodes: (..., n, 3)."""
@@ -169,7 +179,7 @@ class HingeSet:
         self.k = np.broadcast_to(np.asarray(stiffness, float), len(self.nodes))
         self.theta0 = np.broadcast_to(np.asarray(rest_angle, float), len(self.nodes))
         self.n = int(n)
-        self._pattern = None
+        self._patterns = {}  # free-node mask (bytes) or None -> BlockPattern
 
     def _edges(self, x):
         a, b, c = (x[..., self.nodes[:, i], :] for i in range(3))
@@ -182,10 +192,8 @@ class HingeSet:
     def energy(self, x) -> float:
         return float(0.5 * np.sum(self.k * (self.angles(x) - self.theta0) ** 2))
 
-    def _pattern_once(self) -> BlockPattern:
-        if self._pattern is None:
-            self._pattern = BlockPattern(self.nodes, self.n)
-        return self._pattern
+    def _pattern_once(self, free=None) -> BlockPattern:
+        return _cached_pattern(self, free)
 
     def forces(self, x) -> np.ndarray:
         """-grad E on every node, (..., n, 3): -F'(c) grad c mapped onto a, b, c."""
@@ -203,8 +211,9 @@ class HingeSet:
         g2 = -first * (u1 - c * u2) / l2
         return self._pattern_once().scatter(np.stack([-g1, g1 - g2, g2], axis=-2))
 
-    def jacobian(self, x) -> sp.csr_matrix:
-        """d forces / dx = -Hess E, (3n, 3n) CSR, for one state x (n, 3)."""
+    def jacobian(self, x, free=None) -> sp.csr_matrix:
+        """d forces / dx = -Hess E, (3n, 3n) CSR, for one state x (n, 3); with `free` (n,)
+        bool, the free nodes' rows and columns only."""
         e1, e2 = self._edges(np.asarray(x, float))
         grad, hess = _cosine_derivatives(e1, e2)
         theta = np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=-1), _dot(e1, e2))
@@ -212,7 +221,7 @@ class HingeSet:
         h_edges = second[:, None, None, None, None] * (grad[:, :, None, :, None]
                                                        * grad[:, None, :, None, :]) \
             + first[:, None, None, None, None] * hess
-        return self._pattern_once().matrix(-_node_blocks(h_edges))
+        return self._pattern_once(free).matrix(-_node_blocks(h_edges))
 
 
 def dihedral_gradient(a, b, c, d):
@@ -242,7 +251,7 @@ class DihedralSet:
         self.k = np.broadcast_to(np.asarray(stiffness, float), len(self.nodes))
         self.theta0 = np.broadcast_to(np.asarray(rest_angle, float), len(self.nodes))
         self.n = int(n)
-        self._pattern = None
+        self._patterns = {}  # free-node mask (bytes) or None -> BlockPattern
 
     def _corners(self, x):
         return tuple(x[..., self.nodes[:, i], :] for i in range(4))
@@ -259,10 +268,8 @@ class DihedralSet:
     def energy(self, x) -> float:
         return float(0.5 * np.sum(self.k * (self.angles(x) - self.theta0) ** 2))
 
-    def _pattern_once(self) -> BlockPattern:
-        if self._pattern is None:
-            self._pattern = BlockPattern(self.nodes, self.n)
-        return self._pattern
+    def _pattern_once(self, free=None) -> BlockPattern:
+        return _cached_pattern(self, free)
 
     def forces(self, x) -> np.ndarray:
         """-k (theta - theta0) grad theta on every node, (..., n, 3)."""
@@ -281,8 +288,9 @@ class DihedralSet:
         hess = g.imag / COMPLEX_STEP
         return grad, 0.5 * (hess + np.swapaxes(hess, 1, 2))
 
-    def jacobian(self, x) -> sp.csr_matrix:
-        """d forces / dx = -k (grad theta grad theta^T + (theta - theta0) Hess theta)."""
+    def jacobian(self, x, free=None) -> sp.csr_matrix:
+        """d forces / dx = -k (grad theta grad theta^T + (theta - theta0) Hess theta); with
+        `free` (n,) bool, the free nodes' rows and columns only."""
         x = np.asarray(x, float)
         offset = self.angles(x) - self.theta0
         blocks = np.empty((len(self.nodes), 12, 12))
@@ -291,7 +299,15 @@ class DihedralSet:
             grad, hess = self._hessian_blocks(x, rows)
             blocks[rows] = -self.k[rows, None, None] * (
                 grad[:, :, None] * grad[:, None, :] + offset[rows, None, None] * hess)
-        return self._pattern_once().matrix(blocks)
+        return self._pattern_once(free).matrix(blocks)
+
+
+def _cached_pattern(term, free) -> BlockPattern:
+    """The term's pattern for a free-node mask (None: all nodes), found once per mask."""
+    key = None if free is None else np.asarray(free, bool).tobytes()
+    if key not in term._patterns:
+        term._patterns[key] = BlockPattern(term.nodes, term.n, free)
+    return term._patterns[key]
 
 
 def bending_terms(net) -> list:

@@ -121,7 +121,7 @@ class NetworkSystem:
         if self.bending:
             full = self.full_positions(x)
             for term in self.bending:
-                kx = kx + term.jacobian(full)[self.free_dofs][:, self.free_dofs]
+                kx = kx + term.jacobian(full, self.free)
         return kx.tocsr(), kv
 
     def jacobians(self, t, x, v):
