@@ -55,7 +55,7 @@ class RestitutionMap:
         }
 
 
-@functools.cache
+@functools.lru_cache(maxsize=None)
 def restitution_map(e: float, dt: float, integrator: str, impedance: float) -> RestitutionMap:
     """Bisection on B in [0, 1/dt] (explicit damping: stable while B dt < 2); e(B) falls
     monotonically from ~1 (B = 0) to ~0.05 (B = 1/dt) at 10-step contacts. Deterministic;

@@ -28,22 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..common.checks import (
-    linear_drag,
-    non_sphere_bodies,
-    spheres_without_inertia,
-    walls_without_contact,
-)
+from ..common.checks import (linear_drag, non_sphere_bodies, spheres_without_inertia,
+                             walls_without_contact)
 from .body_plan import BodyPlan
-from .contact_params import (
-    CONTACT_STEPS,
-    IMPEDANCE,
-    MAX_FRICTION_SPHERES,
-    SOLVER_ITERATIONS,
-    SOLVER_TOLERANCE,
-    VARIANT_NOTES,
-    friction_damping,
-)
+from .contact_params import (CONTACT_STEPS, IMPEDANCE, MAX_FRICTION_SPHERES,
+                             SOLVER_ITERATIONS, SOLVER_TOLERANCE, VARIANT_NOTES,
+                             friction_damping)
 from .mjcf import xml_floats
 from .restitution import RestitutionMap, restitution_map
 

@@ -37,14 +37,8 @@ from ..methods import METHODS
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
 from ..spheres import rotate
-from .rigid_sim import (
-    INERTIA_RTOL,
-    PARTICLE_SETTINGS,
-    check_compiled_bodies,
-    conjugate,
-    engine_energy,
-    principal_frame,
-)
+from .rigid_sim import (INERTIA_RTOL, PARTICLE_SETTINGS, check_compiled_bodies, conjugate,
+                        engine_energy, principal_frame)
 
 WHO = "mujoco adapter"
 PIVOT_INTEGRATORS = ("symplectic_euler", "rk4", "implicit", "implicitfast")
