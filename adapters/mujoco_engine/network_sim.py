@@ -34,16 +34,23 @@ class MujocoNetworkSim(MujocoSim):
         self.free = free_mask(self.net)
         self.edges = kept_edges(self.net, self.free)
         t0 = time.perf_counter()
-        xml = network_xml(scene, dt, method.xml, self.free)
-        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.model = self._compile()
         self.compile_s = time.perf_counter() - t0
         self._check_model()
         self._check_network()
         self.data = mujoco.MjData(self.model)
-        self.data.qvel[:] = self.net.velocities[self.free].ravel()
-        self._x0 = np.array(self.net.positions, float)
+        self._set_initial_state()
         self._bad = np.array([int(getattr(mujoco.mjtWarning, w)) for w in BAD_WARNINGS])
         self._counts = self.data.warning.number
+
+    def _compile(self):
+        xml = network_xml(self.scene, self.dt, self.method.xml, self.free)
+        return self.mj.MjModel.from_xml_string(xml)
+
+    def _set_initial_state(self):
+        """qpos = 0 (the bodies sit at the initial positions), qvel = the free velocities."""
+        self.data.qvel[:] = self.net.velocities[self.free].ravel()
+        self._x0 = np.array(self.net.positions, float)
 
     def _check_network(self):
         """The compiled masses and tendon parameters are the scene's, exactly."""

@@ -1,17 +1,23 @@
 """MuJoCo's spring-network group (cloth, rope, hair as one `SpringNetwork`; mujoco 4.0.0).
 
-Formulation "" ("tendon", the only one): free nodes are 3-slide bodies, pinned nodes world
+Formulation "" ("tendon"): free nodes are 3-slide bodies, pinned nodes world
 sites, stretch edges spatial tendons with stiffness k, springlength L0 and damping c, air drag
 joint damping (adapters/mujoco_engine/network_mjcf.py): exactly the in-house stretch model.
-Hinges and dihedrals cannot be tendons: such scenes are refused (BENDING_REASON).
+Hinges and dihedrals cannot be tendons: formulation "" refuses them (BENDING_REASON).
+
+Formulation "flex" (the only one offered for a network with hinges): a hair as a 1-D flexcomp
+discrete elastic rod for bending plus the same tendons for stretching
+(adapters/mujoco_engine/network_flex.py: the mapping E I = k_b (l0 + l1) / 2 and its
+tan(phi/2) bending measure); chains that one rod cannot hold are refused with the reason.
 
 Not offered, with the reasons (mujoco 4.0.0, its changelog and measured):
 - "cable" (composite type="cable" + the mujoco.elasticity.cable plugin): both were removed in
   mujoco 4.0.0 (changelog, Deformables, breaking change 9: superseded by 1D flexcomp with
   elasticity); the wheel ships no libelasticity plugin;
-- "flex" (flexcomp dim=1/2 with edge stiffness/damping): one stiffness, damping and rest
-  configuration (qpos0) per flex, so it represents a network only with uniform k, c and L0 =
-  initial lengths, and edge stiffness is refused under `discrete` (changelog 13); not built.
+- flex EDGE stiffness/damping for ropes and cloths (flexcomp dim=1/2): one stiffness, damping
+  and rest configuration (qpos0) per flex, so it represents a network only with uniform k, c
+  and L0 = initial lengths, and edge stiffness is refused under `discrete` (changelog 13); the
+  tendons already are the exact stretch model, so "flex" uses them for stretching too.
 
 Integrators (measured in tests/engines/mujoco/test_mujoco_spring_network.py):
 - symplectic_euler -> Euler with eulerdamp disabled: the in-house step to round-off;
@@ -75,22 +81,46 @@ def network_methods() -> dict:
     return {name: replace(METHODS[name], note=_NOTES[name]) for name in RUNS}
 
 
+FLEX_TREATED_IMPLICITLY = {
+    "discrete": TREATED_IMPLICITLY["discrete"] + "; the rod's bending forces by MuJoCo's "
+                "positive semi-definite Hessian approximation (XML reference, flex/elasticity)",
+}
+
+
+def _bends(net) -> bool:
+    return bool(len(net.hinges) or len(net.dihedrals))
+
+
 def supports(engine, scene, integrator):
+    from ..network_flex import flex_reason
     reason = scene_reason(scene, WHO)
     if reason:
         return reason
     net = scene.networks[0]
-    if len(net.hinges) or len(net.dihedrals):
-        return BENDING_REASON
+    if _bends(net):
+        flex = flex_reason(net)
+        if flex:
+            return f"{BENDING_REASON}; {flex}"
     return REFUSED.get(integrator)
 
 
+def variants(engine, scene):
+    """"flex" alone for a network with hinges (the tendon formulation has no bending), ""
+    alone otherwise."""
+    return ("flex",) if _bends(scene.networks[0]) else ("",)
+
+
 def build(engine, scene, dt, integrator, variant):
+    from ..network_flex_sim import MujocoFlexSim
     from ..network_sim import MujocoNetworkSim
     if integrator not in RUNS:
         raise ValueError(REFUSED.get(integrator) or
                          f"mujoco spring-network integrator must be one of {list(RUNS)}, "
                          f"got {integrator!r}")
+    if variant == "flex":
+        return MujocoFlexSim(scene, dt, integrator, network_methods()[integrator],
+                             FLEX_TREATED_IMPLICITLY.get(integrator,
+                                                         TREATED_IMPLICITLY[integrator]))
     return MujocoNetworkSim(scene, dt, integrator, network_methods()[integrator],
                             TREATED_IMPLICITLY[integrator])
 
@@ -98,4 +128,4 @@ def build(engine, scene, dt, integrator, variant):
 MODEL_GROUP = ModelGroup(
     name="spring_network", build=build, claims=claims, parts=frozenset({"networks"}),
     features=frozenset({"networks", "gravity", "drag"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=OFFERED)
+    variants=variants, integrators=OFFERED)
