@@ -106,6 +106,9 @@ class SpringNetwork(ArrayPart):
         pinned = index_array("network.pinned", self.pinned, None, n)
         if len(np.unique(pinned)) != len(pinned):
             raise ValueError("network.pinned must list distinct node indices")
+        if np.any(self.velocities[pinned] != 0):
+            raise ValueError("network.velocities of pinned nodes must be 0 (a pinned node "
+                             "never moves)")
         _set(self, "pinned", pinned)
 
     def _set_edges(self, x: np.ndarray) -> None:
