@@ -118,7 +118,8 @@ def _refusal(**changes):
     (dict(linear_drag=0.1), "drag"),
     (dict(stiffness=np.linspace(10, 20, 20)), "stiffness"),
     (dict(masses=np.linspace(0.01, 0.02, 9)), "masses"),
-    (dict(velocities=np.ones((9, 3))), "velocities"),
+    (dict(velocities=np.r_[[[0.0, 0.0, 0.0]], np.ones((5, 3)), [[0.0, 0.0, 0.0]],
+                           np.ones((2, 3))]), "velocities"),  # pinned nodes 0 and 6 at rest
     (dict(rest_length=np.linspace(0.05, 0.1, 20)), "rest lengths"),
     (dict(hinges=[[0, 1, 2]], hinge_stiffness=1.0), "angle springs"),
 ])
