@@ -53,3 +53,20 @@ def body_state(p, cid, uid, link, velocity=True):
     state = p.getLinkState(uid, link, computeLinkVelocity=int(velocity),
                            computeForwardKinematics=1, physicsClientId=cid)
     return state[0], (state[6] if velocity else None)
+
+
+class OwnsClient:
+    """Mixin for a Sim that owns one pybullet physics client (`self.p`, `self.client`): the
+    client is disconnected on `close()` and when the Sim is collected, once."""
+
+    def close(self):
+        client = getattr(self, "client", None)
+        if client is None:
+            return
+        with contextlib.suppress(Exception):  # already gone (interpreter shutdown)
+            if self.p.isConnected(physicsClientId=client):
+                self.p.disconnect(physicsClientId=client)
+        self.client = None
+
+    def __del__(self):
+        self.close()

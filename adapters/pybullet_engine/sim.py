@@ -15,10 +15,10 @@ from refsim.engine import Sim
 from .contacts import CONTACT_PARAMS, build_spheres, build_walls, contact_settings
 from .forces import ForceTerms
 from .multibodies import build_multibodies, hinge_settings, multibody_settings
-from .runtime import INTEGRATOR, body_state, c_stdout_silenced
+from .runtime import INTEGRATOR, OwnsClient, body_state, c_stdout_silenced
 
 
-class PybulletSim(Sim):
+class PybulletSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
         with c_stdout_silenced():
@@ -96,13 +96,3 @@ class PybulletSim(Sim):
             stages += ["contacts:discrete_detection", "contacts:impulses"]
         return stages + ["integrate:symplectic_euler"]
 
-    def close(self):
-        if self.client is not None:
-            try:
-                self.p.disconnect(physicsClientId=self.client)
-            except Exception:  # already gone (interpreter shutdown)
-                pass
-            self.client = None
-
-    def __del__(self):
-        self.close()

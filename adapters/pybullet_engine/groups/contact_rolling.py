@@ -23,7 +23,7 @@ from refsim.engine import ModelGroup, Sim
 from refsim.scene.rigid_shapes import rolling_scene_refusal, shapes_of
 
 from ..contacts import CONTACT_PARAMS, materials
-from ..runtime import INTEGRATOR, c_stdout_silenced, import_pybullet
+from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
 
 WHO = "pybullet adapter"
 CYLINDER_NOTE = (
@@ -58,7 +58,7 @@ MODEL_GROUP = ModelGroup(
     variants=lambda engine, scene: ("",), integrators=("symplectic_euler",))
 
 
-class PybulletRollingSim(Sim):
+class PybulletRollingSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
         self.material = materials(scene.contact)
@@ -138,13 +138,3 @@ class PybulletRollingSim(Sim):
             "inertia": "scene mass and diagonal inertia via changeDynamics (shape's unused)",
         }
 
-    def close(self):
-        if getattr(self, "client", None) is not None:
-            try:
-                self.p.disconnect(physicsClientId=self.client)
-            except Exception:  # already gone (interpreter shutdown)
-                pass
-            self.client = None
-
-    def __del__(self):
-        self.close()

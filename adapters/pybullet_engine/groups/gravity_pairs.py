@@ -24,7 +24,7 @@ from refsim.models.nbody_gravity import pair_accelerations
 from refsim.scene.gravity_pairs import gravity_pairs_of
 
 from ..multibodies import free_body, multibody_settings
-from ..runtime import INTEGRATOR, c_stdout_silenced, import_pybullet
+from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
 
 COST_NOTE = ("pair force computed in numpy and applied through applyExternalForce with one "
              "Python call per step (per body for the position read and the force, plus "
@@ -52,7 +52,7 @@ MODEL_GROUP = ModelGroup(
     variants=lambda engine, scene: ("",), integrators=("symplectic_euler",))
 
 
-class PybulletGravitySim(Sim):
+class PybulletGravitySim(OwnsClient, Sim):
     """One DIRECT client; one free multibody base per particle."""
 
     def __init__(self, p, scene, dt):
@@ -116,11 +116,3 @@ class PybulletGravitySim(Sim):
                            "kernel": "refsim.models.nbody_gravity.pair_accelerations (numpy)"},
         }
 
-    def close(self):
-        if getattr(self, "client", None) is not None:
-            if self.p.isConnected(physicsClientId=self.client):
-                self.p.disconnect(physicsClientId=self.client)
-            self.client = None
-
-    def __del__(self):
-        self.close()

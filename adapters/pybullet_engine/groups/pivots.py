@@ -32,7 +32,7 @@ import numpy as np
 from refsim.engine import ModelGroup, Sim
 from refsim.scene.pivots import check_on_anchor, pivots_of
 
-from ..runtime import INTEGRATOR, c_stdout_silenced, import_pybullet
+from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
 from .rigid_frames import PrincipalFrames, xyzw_to_matrices
 
 WHO = "pybullet adapter"
@@ -68,7 +68,7 @@ MODEL_GROUP = ModelGroup(
     variants=lambda engine, scene: ("",), integrators=("symplectic_euler",))
 
 
-class PybulletPivotSim(Sim):
+class PybulletPivotSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
         self.pivots, self.order = pivots_of(scene), pivots_of(scene).body
@@ -190,11 +190,3 @@ class PybulletPivotSim(Sim):
                        "anchor": self.pivots.anchor.tolist()},
         }
 
-    def close(self):
-        if getattr(self, "client", None) is not None:
-            if self.p.isConnected(physicsClientId=self.client):
-                self.p.disconnect(physicsClientId=self.client)
-            self.client = None
-
-    def __del__(self):
-        self.close()

@@ -38,7 +38,7 @@ import numpy as np
 
 from refsim.engine import ModelGroup, Sim
 
-from ..runtime import INTEGRATOR, c_stdout_silenced, import_pybullet
+from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
 from .rigid_frames import PrincipalFrames, rigid_energy, world_inertia, xyzw_to_matrices
 
 VARIANTS = ("multibody", "maximal")
@@ -83,7 +83,7 @@ MODEL_GROUP = ModelGroup(
     integrators=("symplectic_euler",))
 
 
-class PybulletRigidSim(Sim):
+class PybulletRigidSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt, variant):
         if variant not in VARIANTS:
             raise ValueError(f"pybullet rigid variant must be one of {list(VARIANTS)}, got "
@@ -194,13 +194,3 @@ class PybulletRigidSim(Sim):
                "integrate:symplectic_euler", "orientation:exp_map_normalised"],
         }
 
-    def close(self):
-        if getattr(self, "client", None) is not None:
-            try:
-                self.p.disconnect(physicsClientId=self.client)
-            except Exception:  # already gone (interpreter shutdown)
-                pass
-            self.client = None
-
-    def __del__(self):
-        self.close()

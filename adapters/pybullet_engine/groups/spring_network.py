@@ -18,10 +18,19 @@ import numpy as np
 from adapters.common.spring_network import claims, observation, scene_reason
 from refsim.engine import ModelGroup, Sim
 
-from ..runtime import INTEGRATOR, c_stdout_silenced, import_pybullet
-from ..softbody import (CAPTURE_DT, CR_MAX_ITERATIONS, CR_TOLERANCE, MAX_DISPLACEMENT,
-                        SLEEP_SPEED, SLEEP_TIME, load_network, node_positions, rest_scale,
-                        softbody_reason)
+from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
+from ..softbody import (
+    CAPTURE_DT,
+    CR_MAX_ITERATIONS,
+    CR_TOLERANCE,
+    MAX_DISPLACEMENT,
+    SLEEP_SPEED,
+    SLEEP_TIME,
+    load_network,
+    node_positions,
+    rest_scale,
+    softbody_reason,
+)
 
 FORMULATIONS = {"softbody": "pybullet's mass-spring soft body (loadSoftBody useMassSpring=1, "
                             "deformable world)"}
@@ -29,7 +38,7 @@ STEPPER_REASON = ("pybullet's deformable world has one stepper (explicit elastic
                   "gravity, implicit damping, then drift): offered as symplectic_euler")
 
 
-class PybulletNetworkSim(Sim):
+class PybulletNetworkSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
         self.net = scene.networks[0]
@@ -99,15 +108,6 @@ class PybulletNetworkSim(Sim):
                           "velocities; round-off |x| eps / h",
             "python_calls_per_step": 1,
         }
-
-    def close(self):
-        if getattr(self, "client", None) is not None:
-            if self.p.isConnected(physicsClientId=self.client):
-                self.p.disconnect(physicsClientId=self.client)
-            self.client = None
-
-    def __del__(self):
-        self.close()
 
 
 def supports(engine, scene, integrator):
