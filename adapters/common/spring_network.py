@@ -33,6 +33,15 @@ def integrator_reason(integrator: str | None, offered=NETWORK_INTEGRATORS) -> st
     return f"spring networks: integrator must be one of {list(offered)}, got {integrator!r}"
 
 
+def solve_formulations(scene) -> tuple:
+    """The formulations of Baraff-Witkin's linear solve an engine offers on this scene: ""
+    (direct) and "cg" where the in-house step solves sparsely (3 n_free >= SPARSE_MIN, so the
+    engines' rows pair up), else "" alone (a dense solve: CG would change nothing)."""
+    from refsim.integrators.implicit import SPARSE_MIN
+    net = scene.networks[0]
+    return ("", "cg") if 3 * (len(net) - len(net.pinned)) >= SPARSE_MIN else ("",)
+
+
 def free_mask(net) -> np.ndarray:
     """(n,) bool: the nodes that move (not pinned)."""
     free = np.ones(len(net), bool)

@@ -17,6 +17,7 @@ from adapters.common.spring_network import (
     integrator_reason,
     observation,
     scene_reason,
+    solve_formulations,
 )
 from refsim.engine import ModelGroup
 from refsim.integrators import BaraffWitkin, get_integrator
@@ -63,8 +64,7 @@ def supports(engine, scene, integrator):
 
 
 def variants(engine, scene):
-    net = scene.networks[0]
-    return tuple(FORMULATIONS) if 3 * (len(net) - len(net.pinned)) >= SPARSE_MIN else ("",)
+    return solve_formulations(scene)
 
 
 def build(engine, scene, dt, integrator, variant):

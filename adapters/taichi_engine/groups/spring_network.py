@@ -30,10 +30,10 @@ from adapters.common.spring_network import (
     integrator_reason,
     observation,
     scene_reason,
+    solve_formulations,
 )
 from refsim.engine import EngineFailure, ModelGroup, Sim
 from refsim.integrators import get_integrator
-from refsim.integrators.implicit import SPARSE_MIN
 from refsim.models.spring_network import stretch_springs
 
 from ..kernel_store import arrays_setting, to_taichi
@@ -67,8 +67,7 @@ def supports(engine, scene, integrator):
 
 
 def variants(engine, scene):
-    net = scene.networks[0]
-    return tuple(FORMULATIONS) if 3 * (len(net) - len(net.pinned)) >= SPARSE_MIN else ("",)
+    return solve_formulations(scene)
 
 
 def network_pack(net, gravity, drag):
