@@ -20,7 +20,7 @@ No `from __future__ import annotations` here: taichi reads annotations as object
 import math
 
 from .kernel_types import i32, nd_f64, nd_i32, nd_vec3, ti, vec3
-from .network_kernels import NET_FIELDS, make_steppers, spring_sum, to_accel
+from .network_kernels import NET_FIELDS, make_steppers, spring_sum
 
 EPS = 2.220446049250313e-16  # np.finfo(float).eps: np.sinc's stand-in for y = 0
 
@@ -115,6 +115,19 @@ def add_bend(P: ti.template(), a: ti.template(), off):
 
 
 @ti.func
+def minus_drag(P: ti.template(), v: ti.template(), a: ti.template(), off):
+    for i in range(P.mass.shape[0]):
+        a[off + i] = a[off + i] - P.drag * v[off + i]
+
+
+@ti.func
+def to_accel(P: ti.template(), a: ti.template(), off):
+    """Forces in a[off + i] to accelerations: f / m + g."""
+    for i in range(P.mass.shape[0]):
+        a[off + i] = a[off + i] * P.inv_m[i] + P.gravity
+
+
+@ti.func
 def clear_bend(P: ti.template()):
     for i in range(P.mass.shape[0]):
         P.bend[i] = vec3(0.0, 0.0, 0.0)
@@ -126,6 +139,7 @@ def make_accel(hinges: bool, dihedrals: bool):
     @ti.func
     def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(), off):
         spring_sum(P, x, v, a, off)
+        minus_drag(P, v, a, off)
         if ti.static(hinges):
             clear_bend(P)
             hinge_forces(P, x, off)

@@ -57,10 +57,9 @@ def spring_force(P: ti.template(), x: ti.template(), v: ti.template(), s, off):
 
 @ti.func
 def spring_sum(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(), off):
-    """a = f_springs - drag v on every free node (forces, not yet accelerations); node i at
-    x[off + i], v[off + i], a[off + i] (RK4 keeps its four stages in one array)."""
-    count = P.mass.shape[0]
-    for i in range(count):
+    """a = f_springs on every free node (forces); node i at x[off + i], v[off + i],
+    a[off + i] (RK4 keeps its four stages in one array)."""
+    for i in range(P.mass.shape[0]):
         a[off + i] = vec3(0.0, 0.0, 0.0)
     for s in range(P.body.shape[0]):
         a[P.body[s] + off] += spring_force(P, x, v, s, off)
@@ -68,22 +67,15 @@ def spring_sum(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.templ
         j = P.other[s]
         if j >= 0:
             a[j + off] += -spring_force(P, x, v, s, off)
-    for i in range(count):
-        a[off + i] = a[off + i] - P.drag * v[off + i]
-
-
-@ti.func
-def to_accel(P: ti.template(), a: ti.template(), off):
-    """Forces in a[off + i] to accelerations: f / m + g."""
-    for i in range(P.mass.shape[0]):
-        a[off + i] = a[off + i] * P.inv_m[i] + P.gravity
 
 
 @ti.func
 def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(), off):
-    """a = (f_springs - drag v) / m + g on every free node (see spring_sum)."""
+    """a = (f_springs - drag v) / m + g on every free node (one closing sweep; the bending
+    family's accel splits it: bending_kernels)."""
     spring_sum(P, x, v, a, off)
-    to_accel(P, a, off)
+    for i in range(P.mass.shape[0]):
+        a[off + i] = (a[off + i] - P.drag * v[off + i]) * P.inv_m[i] + P.gravity
 
 
 def make_steppers(pack_t, accel_fn):
