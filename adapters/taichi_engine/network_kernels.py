@@ -23,10 +23,12 @@ from .kernel_types import f64, i32, nd_f64, nd_i32, nd_vec3, ti, vec3
 mat3 = ti.types.matrix(3, 3, f64)
 nd_mat3 = ti.types.ndarray(dtype=mat3, ndim=1)
 
-# one network on its free nodes: masses, gravity, air drag, springs (other = -1: an anchor)
-net_t = ti.types.argpack(mass=nd_f64, inv_m=nd_f64, gravity=vec3, drag=f64, body=nd_i32,
-                         other=nd_i32, anchor=nd_vec3, k=nd_f64, rest=nd_f64, c=nd_f64,
-                         damped=i32, velocity_dependent=i32)
+# one network on its free nodes: masses, gravity, air drag, springs (other = -1: an anchor);
+# a network with bending terms extends these fields (bending_kernels)
+NET_FIELDS = {"mass": nd_f64, "inv_m": nd_f64, "gravity": vec3, "drag": f64, "body": nd_i32,
+              "other": nd_i32, "anchor": nd_vec3, "k": nd_f64, "rest": nd_f64, "c": nd_f64,
+              "damped": i32, "velocity_dependent": i32}
+net_t = ti.types.argpack(**NET_FIELDS)
 
 
 @ti.func
@@ -54,11 +56,10 @@ def spring_force(P: ti.template(), x: ti.template(), v: ti.template(), s, off):
 
 
 @ti.func
-def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(), off):
-    """a = (f_springs - drag v) / m + g on every free node; node i at x[off + i], v[off + i],
+def spring_sum(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(), off):
+    """a = f_springs on every free node (forces); node i at x[off + i], v[off + i],
     a[off + i] (RK4 keeps its four stages in one array)."""
-    count = P.mass.shape[0]
-    for i in range(count):
+    for i in range(P.mass.shape[0]):
         a[off + i] = vec3(0.0, 0.0, 0.0)
     for s in range(P.body.shape[0]):
         a[P.body[s] + off] += spring_force(P, x, v, s, off)
@@ -66,76 +67,91 @@ def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template()
         j = P.other[s]
         if j >= 0:
             a[j + off] += -spring_force(P, x, v, s, off)
-    for i in range(count):
+
+
+@ti.func
+def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template(), off):
+    """a = (f_springs - drag v) / m + g on every free node (one closing sweep; the bending
+    family's accel splits it: bending_kernels)."""
+    spring_sum(P, x, v, a, off)
+    for i in range(P.mass.shape[0]):
         a[off + i] = (a[off + i] - P.drag * v[off + i]) * P.inv_m[i] + P.gravity
 
 
-@ti.kernel
-def start(P: net_t, x: nd_vec3, v: nd_vec3, a: nd_vec3):
-    """a = a(x, v): velocity Verlet's carried acceleration."""
-    ti.loop_config(serialize=True)
-    for _ in range(1):
-        accel(P, x, v, a, 0)
+def make_steppers(pack_t, accel_fn):
+    """(start, symplectic_euler, velocity_verlet, rk4) kernels over argpacks of type pack_t
+    with the acceleration ti.func accel_fn(P, x, v, a, off): one kernel family per force
+    model (a network without bending compiles none of the bending code)."""
 
+    @ti.kernel
+    def start(P: pack_t, x: nd_vec3, v: nd_vec3, a: nd_vec3):
+        """a = a(x, v): velocity Verlet's carried acceleration."""
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            accel_fn(P, x, v, a, 0)
 
-@ti.kernel
-def symplectic_euler(P: net_t, x: nd_vec3, v: nd_vec3, a: nd_vec3, h: f64, n: i32):
-    """Kick-drift: v += h a(x, v); x += h v."""
-    ti.loop_config(serialize=True)
-    for _ in range(n):
-        accel(P, x, v, a, 0)
-        for i in range(x.shape[0]):
-            v[i] = v[i] + h * a[i]
-            x[i] = x[i] + h * v[i]
-
-
-@ti.kernel
-def velocity_verlet(P: net_t, x: nd_vec3, v: nd_vec3, a: nd_vec3, vh: nd_vec3, w: nd_vec3,
-                    h: f64, n: i32):
-    """Half kick, drift, a(x1, vh), half kick; once more with a(x1, v1) when forces depend on
-    v. The velocity a is taken at is copied into w first (one inlined force sweep, not two:
-    half the compile time; a copy changes no bit)."""
-    ti.loop_config(serialize=True)
-    for _ in range(n):
-        for i in range(x.shape[0]):
-            vh[i] = v[i] + (0.5 * h) * a[i]
-            x[i] = x[i] + h * vh[i]
-            w[i] = vh[i]
-        for sweep in range(1 + P.velocity_dependent):
-            if sweep == 1:
-                for i in range(x.shape[0]):
-                    w[i] = v[i]
-            accel(P, x, w, a, 0)
+    @ti.kernel
+    def symplectic_euler(P: pack_t, x: nd_vec3, v: nd_vec3, a: nd_vec3, h: f64, n: i32):
+        """Kick-drift: v += h a(x, v); x += h v."""
+        ti.loop_config(serialize=True)
+        for _ in range(n):
+            accel_fn(P, x, v, a, 0)
             for i in range(x.shape[0]):
-                v[i] = vh[i] + (0.5 * h) * a[i]
+                v[i] = v[i] + h * a[i]
+                x[i] = x[i] + h * v[i]
+
+    @ti.kernel
+    def velocity_verlet(P: pack_t, x: nd_vec3, v: nd_vec3, a: nd_vec3, vh: nd_vec3, w: nd_vec3,
+                        h: f64, n: i32):
+        """Half kick, drift, a(x1, vh), half kick; once more with a(x1, v1) when forces depend on
+        v. The velocity a is taken at is copied into w first (one inlined force sweep, not two:
+        half the compile time; a copy changes no bit)."""
+        ti.loop_config(serialize=True)
+        for _ in range(n):
+            for i in range(x.shape[0]):
+                vh[i] = v[i] + (0.5 * h) * a[i]
+                x[i] = x[i] + h * vh[i]
+                w[i] = vh[i]
+            for sweep in range(1 + P.velocity_dependent):
+                if sweep == 1:
+                    for i in range(x.shape[0]):
+                        w[i] = v[i]
+                accel_fn(P, x, w, a, 0)
+                for i in range(x.shape[0]):
+                    v[i] = vh[i] + (0.5 * h) * a[i]
+
+    @ti.kernel
+    def rk4(P: pack_t, x: nd_vec3, v: nd_vec3, xs: nd_vec3, vs: nd_vec3, acc: nd_vec3, h: f64,
+            n: i32):
+        """Classical RK4 on (x, v): stage s (X_1 = x, V_1 = v) X_s = x + (a_s h) V_s-1,
+        V_s = v + (a_s h) A_s-1, A_s = a(X_s, V_s), a = (1/2, 1/2, 1); the four stages at offsets
+        s n of xs, vs, acc (one inlined force sweep, not four); then x += (b_s h) V_s,
+        v += (b_s h) A_s summed in stage order, b = (1/6, 1/3, 1/3, 1/6)."""
+        m = x.shape[0]
+        ti.loop_config(serialize=True)
+        for _ in range(n):
+            for st in range(4):
+                off, back = st * m, (st - 1) * m
+                if st == 0:
+                    for i in range(m):
+                        xs[i], vs[i] = x[i], v[i]
+                else:
+                    ha = (1.0 if st == 3 else 0.5) * h
+                    for i in range(m):
+                        xs[off + i] = x[i] + ha * vs[back + i]
+                        vs[off + i] = v[i] + ha * acc[back + i]
+                accel_fn(P, xs, vs, acc, off)
+            h6, h3 = (1.0 / 6.0) * h, (1.0 / 3.0) * h
+            for i in range(m):
+                x[i] = x[i] + h6 * vs[i] + h3 * vs[m + i] + h3 * vs[2 * m + i] + \
+                    h6 * vs[3 * m + i]
+                v[i] = v[i] + h6 * acc[i] + h3 * acc[m + i] + h3 * acc[2 * m + i] + \
+                    h6 * acc[3 * m + i]
+
+    return start, symplectic_euler, velocity_verlet, rk4
 
 
-@ti.kernel
-def rk4(P: net_t, x: nd_vec3, v: nd_vec3, xs: nd_vec3, vs: nd_vec3, acc: nd_vec3, h: f64,
-        n: i32):
-    """Classical RK4 on (x, v): stage s (X_1 = x, V_1 = v) X_s = x + (a_s h) V_s-1,
-    V_s = v + (a_s h) A_s-1, A_s = a(X_s, V_s), a = (1/2, 1/2, 1); the four stages at offsets
-    s n of xs, vs, acc (one inlined force sweep, not four); then x += (b_s h) V_s,
-    v += (b_s h) A_s summed in stage order, b = (1/6, 1/3, 1/3, 1/6)."""
-    m = x.shape[0]
-    ti.loop_config(serialize=True)
-    for _ in range(n):
-        for st in range(4):
-            off, back = st * m, (st - 1) * m
-            if st == 0:
-                for i in range(m):
-                    xs[i], vs[i] = x[i], v[i]
-            else:
-                ha = (1.0 if st == 3 else 0.5) * h
-                for i in range(m):
-                    xs[off + i] = x[i] + ha * vs[back + i]
-                    vs[off + i] = v[i] + ha * acc[back + i]
-            accel(P, xs, vs, acc, off)
-        h6, h3 = (1.0 / 6.0) * h, (1.0 / 3.0) * h
-        for i in range(m):
-            x[i] = x[i] + h6 * vs[i] + h3 * vs[m + i] + h3 * vs[2 * m + i] + h6 * vs[3 * m + i]
-            v[i] = v[i] + h6 * acc[i] + h3 * acc[m + i] + h3 * acc[2 * m + i] + \
-                h6 * acc[3 * m + i]
+start, symplectic_euler, velocity_verlet, rk4 = make_steppers(net_t, accel)
 
 
 # ----- Baraff-Witkin ----------------------------------------------------------------------------

@@ -13,7 +13,11 @@ four steppers of NETWORK_INTEGRATORS with refsim's arithmetic, so the two agree 
   refsim's "cg"), all iterations in one kernel launch. Offered where refsim offers its "cg"
   (a state of SPARSE_MIN entries or more), so the two rows pair up.
 
-Hinge and dihedral (bending) terms are refused with a reason (not written as kernels).
+Hinge and dihedral (bending) terms (refsim.models.bending's formulas, in its operation order):
+kernels of `adapters.taichi_engine.bending_kernels` for the three explicit steppers, a kernel
+family of their own (a network without them compiles the stretch-only kernels as before).
+Baraff-Witkin refuses them: its kernels assemble the stretch springs' 3x3 blocks only (the
+hinge and dihedral Hessian blocks are not assembled on taichi).
 State: the free nodes' x, v as (n_free, 3) numpy arrays handed to the kernels as external
 arrays; observes x and v of every node (pinned ones at their fixed positions, v = 0).
 """
@@ -58,9 +62,10 @@ def supports(engine, scene, integrator):
     if reason:
         return reason
     net = scene.networks[0]
-    if len(net.hinges) or len(net.dihedrals):
-        return ("taichi spring networks: hinge and dihedral (bending) terms are not written "
-                "as kernels; stretch springs, damping, drag, gravity and pins only")
+    if (len(net.hinges) or len(net.dihedrals)) and integrator == "baraff_witkin":
+        return ("taichi spring networks: baraff_witkin assembles the stretch springs' blocks "
+                "only (the hinge and dihedral Hessian blocks are not assembled on taichi); "
+                "bending runs with the explicit steppers")
     if not free_mask(net).any():
         return "taichi spring networks: every node is pinned (nothing moves)"
     return None
@@ -70,8 +75,35 @@ def variants(engine, scene):
     return solve_formulations(scene)
 
 
+def term_fields(net, free, tuples, stiffness, rest_angle, prefix):
+    """One bending term's kernel fields: per tuple corner (flat) the free index or -1 and the
+    fixed position; per tuple k and theta0. An absent term gets one unread placeholder entry
+    (taichi has no empty ndarray; its kernel family compiles no code for the term)."""
+    tuples = np.asarray(tuples, int)
+    count, corners = len(tuples), tuples.reshape(-1)
+    index = np.where(free, np.cumsum(free) - 1, -1)
+    node, anchor = index[corners], np.asarray(net.positions, float)[corners]
+    k = np.broadcast_to(np.asarray(stiffness if count else 0.0, float), count)
+    theta0 = np.broadcast_to(np.asarray(rest_angle if count else 0.0, float), count)
+    if not count:
+        node, anchor, k, theta0 = np.full(1, -1), np.zeros((1, 3)), np.zeros(1), np.zeros(1)
+    return {f"{prefix}_node": to_taichi(node.astype(np.int32)),
+            f"{prefix}_anchor": to_taichi(anchor.reshape(-1, 3)),
+            f"{prefix}_k": to_taichi(k), f"{prefix}_theta0": to_taichi(theta0)}
+
+
+def bending_fields(net, free):
+    """The bending fields of `bending_kernels.bent_t` and the per-node scratch sum."""
+    return {**term_fields(net, free, np.reshape(net.hinges, (-1, 3)), net.hinge_stiffness,
+                          net.hinge_rest_angle, "h"),
+            **term_fields(net, free, np.reshape(net.dihedrals, (-1, 4)),
+                          net.dihedral_stiffness, net.dihedral_rest_angle, "d"),
+            "bend": to_taichi(np.zeros((int(free.sum()), 3)))}
+
+
 def network_pack(net, gravity, drag):
-    """The kernels' argpack of a network on its free nodes (and the free mask)."""
+    """The kernels' argpack of a network on its free nodes (and the free mask): net_t, or
+    bending_kernels.bent_t when the network has hinges or dihedrals."""
     from ..kernel_types import vec3
     from ..network_kernels import net_t
     free = free_mask(net)
@@ -84,8 +116,14 @@ def network_pack(net, gravity, drag):
               "anchor": to_taichi(np.asarray(springs.anchor, float).reshape(-1, 3)),
               "k": to_taichi(springs.stiffness), "rest": to_taichi(springs.rest),
               "c": to_taichi(springs.damping)}
-    pack = net_t(**arrays, gravity=vec3(*np.asarray(gravity, float)), drag=float(drag),
-                 damped=int(damped), velocity_dependent=int(damped or drag > 0))
+    scalars = {"gravity": vec3(*np.asarray(gravity, float)), "drag": float(drag),
+               "damped": int(damped), "velocity_dependent": int(damped or drag > 0)}
+    if len(net.hinges) or len(net.dihedrals):
+        from ..bending_kernels import bent_t
+        arrays.update(bending_fields(net, free))
+        rested = int(bool(np.any(np.asarray(net.hinge_rest_angle) != 0)))
+        return bent_t(**arrays, **scalars, h_rested=rested), arrays, free, len(springs.body)
+    pack = net_t(**arrays, **scalars)
     return pack, arrays, free, len(springs.body)
 
 
@@ -103,7 +141,9 @@ class NetworkSim(Sim):
         self.x = np.ascontiguousarray(net.positions[self.free], dtype=np.float64)
         self.v = np.ascontiguousarray(net.velocities[self.free], dtype=np.float64)
         self.n_free = len(self.x)
-        key = ("network", integrator, variant)
+        self.bending = (bool(len(net.hinges)), bool(len(net.dihedrals)))
+        self.stepper_kernels = _stepper_kernels(nk, self.bending)
+        key = ("network", integrator, variant) + self.bending
         self.cold = key not in self.rt["compiled"]
         t0 = time.perf_counter()
         self._prepare()
@@ -116,20 +156,21 @@ class NetworkSim(Sim):
 
     def _prepare(self):
         """Scratch arrays and the first (compiling) calls of the stepper's kernels."""
-        nk, name = self.nk, self.integrator
+        name = self.integrator
+        start, symplectic_euler, velocity_verlet, rk4 = self.stepper_kernels
         if name == "symplectic_euler":
             self.a = to_taichi(np.zeros((self.n_free, 3)))
-            self.advance = lambda n: nk.symplectic_euler(self.pack, self.x, self.v, self.a,
+            self.advance = lambda n: symplectic_euler(self.pack, self.x, self.v, self.a,
                                                          self.dt, n)
         elif name == "velocity_verlet":
             self.a = np.zeros((self.n_free, 3))  # carried between calls: a(x0, v0) first
-            nk.start(self.pack, self.x, self.v, self.a)
+            start(self.pack, self.x, self.v, self.a)
             vh, w = self._scratch(2)
-            self.advance = lambda n: nk.velocity_verlet(self.pack, self.x, self.v, self.a, vh,
+            self.advance = lambda n: velocity_verlet(self.pack, self.x, self.v, self.a, vh,
                                                         w, self.dt, n)
         elif name == "rk4":
             scratch = [to_taichi(np.zeros((4 * self.n_free, 3))) for _ in range(3)]
-            self.advance = lambda n: nk.rk4(self.pack, self.x, self.v, *scratch, self.dt, n)
+            self.advance = lambda n: rk4(self.pack, self.x, self.v, *scratch, self.dt, n)
         else:
             self.bw = BaraffWitkinSolve(self)
             return
@@ -160,7 +201,10 @@ class NetworkSim(Sim):
                "dtype": "float64", "threads": THREADS, **effective_config(),
                "model": {"nodes": len(self.net), "free_nodes": self.n_free,
                          "pinned": len(self.net.pinned), "stretch_edges": self.n_springs,
-                         "terms": ["stretch"], "edge_to_pinned_node": "spring to a fixed anchor"},
+                         "hinges": len(self.net.hinges), "dihedrals": len(self.net.dihedrals),
+                         "terms": ["stretch"] + [term for term, on in
+                                                 zip(("hinge", "dihedral"), self.bending) if on],
+                         "edge_to_pinned_node": "spring to a fixed anchor"},
                "time_loop": ("one Python iteration per step (a solve between launches)"
                              if self.integrator == "baraff_witkin" else
                              "inside one kernel per Sim.step(n), ti.loop_config(serialize="
@@ -171,6 +215,12 @@ class NetworkSim(Sim):
                "kernels already compiled in this process (launch time only)",
                "solve": "none (explicit)" if self.integrator != "baraff_witkin"
                else FORMULATIONS[self.variant], "formulation": FORMULATIONS[self.variant]}
+        if any(self.bending):
+            out["bending"] = ("refsim.models.bending's forces in its operation order (hinge: "
+                              "F'(c) grad c with 1/sinc; dihedral: Bridson et al. 2003's "
+                              "gradient), each term's per-node sums in tuple order, added after "
+                              "the stretch and drag forces; bending_kernels family "
+                              f"(hinges, dihedrals) = {self.bending}")
         if self.integrator == "baraff_witkin":
             out["bw_jacobians"] = ("K_s = -k ((1 - L0/|d|) I + (L0/|d|) u u^T), D_s = -c u u^T "
                                    "(damping direction's x-derivative left out, as refsim)")
@@ -242,6 +292,15 @@ class BaraffWitkinSolve:
 
     def velocity_change(self):
         return self.solve(self.assemble())
+
+
+def _stepper_kernels(nk, bending):
+    """(start, symplectic_euler, velocity_verlet, rk4): the stretch-only family, or the
+    family for the bending terms present (hinges, dihedrals)."""
+    if not any(bending):
+        return nk.start, nk.symplectic_euler, nk.velocity_verlet, nk.rk4
+    from ..bending_kernels import steppers
+    return steppers(*bending)
 
 
 def build(engine, scene, dt, integrator, variant):

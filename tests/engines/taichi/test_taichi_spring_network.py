@@ -196,8 +196,10 @@ def test_refusals_and_formulations():
     bent = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                          stiffness=net.stiffness, hinges=[[0, 1, 2]], hinge_stiffness=1.0,
                          pinned=net.pinned)
-    reason = TAICHI.supports(Scene(networks=(bent,), gravity=(0, 0, -9.81)), "rk4")
+    bent_scene = Scene(networks=(bent,), gravity=(0, 0, -9.81))
+    reason = TAICHI.supports(bent_scene, "baraff_witkin")  # bending: explicit steppers only
     assert reason is not None and "hinge" in reason
+    assert TAICHI.supports(bent_scene, "rk4") is None
     assert "integrator" in TAICHI.supports(chain, "leapfrog")
     with pytest.raises(ValueError, match="variant"):
         TAICHI.build(chain, DT, "baraff_witkin", "cg")
