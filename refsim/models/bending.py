@@ -171,8 +171,9 @@ def _node_blocks(h_edges):
     return blocks.transpose(0, 1, 3, 2, 4).reshape(-1, 9, 9)
 
 
-class HingeSet:
-    """Hinge springs 1/2 k (theta - theta0)^2 on the turning angle at b of (a, b, c)."""
+class _AngleSprings:
+    """Springs 1/2 k (theta - theta0)^2 on an angle of node tuples (k, p): `angles(x)` is the
+    subclass's; k and theta0 per tuple (scalars broadcast); n nodes in all."""
 
     def __init__(self, nodes, stiffness, rest_angle, n: int):
         self.nodes = np.asarray(nodes, int)
@@ -181,6 +182,16 @@ class HingeSet:
         self.n = int(n)
         self._patterns = {}  # free-node mask (bytes) or None -> BlockPattern
 
+    def energy(self, x) -> float:
+        return float(0.5 * np.sum(self.k * (self.angles(x) - self.theta0) ** 2))
+
+    def _pattern_once(self, free=None) -> BlockPattern:
+        return _cached_pattern(self, free)
+
+
+class HingeSet(_AngleSprings):
+    """Hinge springs 1/2 k (theta - theta0)^2 on the turning angle at b of (a, b, c)."""
+
     def _edges(self, x):
         a, b, c = (x[..., self.nodes[:, i], :] for i in range(3))
         return b - a, c - b
@@ -188,12 +199,6 @@ class HingeSet:
     def angles(self, x) -> np.ndarray:
         e1, e2 = self._edges(x)
         return np.arctan2(np.linalg.norm(np.cross(e1, e2), axis=-1), _dot(e1, e2))
-
-    def energy(self, x) -> float:
-        return float(0.5 * np.sum(self.k * (self.angles(x) - self.theta0) ** 2))
-
-    def _pattern_once(self, free=None) -> BlockPattern:
-        return _cached_pattern(self, free)
 
     def forces(self, x) -> np.ndarray:
         """-grad E on every node, (..., n, 3): -F'(c) grad c mapped onto a, b, c."""
@@ -241,17 +246,10 @@ def dihedral_gradient(a, b, c, d):
     return np.stack([ga, gb, gc, gd], axis=-2)
 
 
-class DihedralSet:
+class DihedralSet(_AngleSprings):
     """Dihedral springs 1/2 k (theta - theta0)^2 on the signed angle about b -> c of (a,b,c,d)."""
 
     CHUNK = 4096  # dihedrals per complex-step batch (bounds the (chunk, 12, 4, 3) temporaries)
-
-    def __init__(self, nodes, stiffness, rest_angle, n: int):
-        self.nodes = np.asarray(nodes, int)
-        self.k = np.broadcast_to(np.asarray(stiffness, float), len(self.nodes))
-        self.theta0 = np.broadcast_to(np.asarray(rest_angle, float), len(self.nodes))
-        self.n = int(n)
-        self._patterns = {}  # free-node mask (bytes) or None -> BlockPattern
 
     def _corners(self, x):
         return tuple(x[..., self.nodes[:, i], :] for i in range(4))
@@ -264,12 +262,6 @@ class DihedralSet:
         n1, n2 = np.cross(b - a, c - a), np.cross(c - d, b - d)
         unit = (c - b) / np.linalg.norm(c - b, axis=-1)[..., None]
         return np.arctan2(_dot(np.cross(n1, n2), unit), _dot(n1, n2))
-
-    def energy(self, x) -> float:
-        return float(0.5 * np.sum(self.k * (self.angles(x) - self.theta0) ** 2))
-
-    def _pattern_once(self, free=None) -> BlockPattern:
-        return _cached_pattern(self, free)
 
     def forces(self, x) -> np.ndarray:
         """-k (theta - theta0) grad theta on every node, (..., n, 3)."""
