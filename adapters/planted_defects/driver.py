@@ -1,0 +1,215 @@
+"""Runs each planted defect where it matters and says whether the verdicts catch it.
+
+For each defect: the jobs of the default matrix (`refsim.runner.expand(engines=["refsim"])`,
+or its quick form) whose scene and integrator the defect can touch (`Defect.touches`), re-labelled
+to the defect's engine; the control engine (refsim behind the same wrapper, no defect) runs the
+same jobs. Both run in one pass (accuracy only, no timing pass; `refsim.executors.Local` with
+2 processes by default), the order fits are added over the whole table (`runner.with_orders`),
+and nothing is cached between runs.
+
+A defect MATTERS to a row when the defect's row and the control's row differ by more than
+round-off: their statuses differ, or both are ok and their err_max (or the column the case's
+tolerance judges, where that is another) differ by more than
+    ROUNDOFF_ABS x the case's motion scale + ROUNDOFF_REL x the control's value
+(1e-9 of the motion: round-off after 1e6 steps is ~1e-10 of the state; 1e-6 relative: far
+above the last-bit differences of a reordered sum). A row whose defect finds nothing to change
+in the sim (UNREACHABLE, see engines) never matters; the table counts those separately.
+A (case, integrator) pair MATTERS when one of its rows does, and is CAUGHT when `caught` finds
+a catching row among the rows that matter.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import replace
+
+import pandas as pd
+
+from refsim import executors
+from refsim.registry import get_case
+from refsim.runner import expand, with_orders
+
+from .engines import DEFECTS, UNREACHABLE, register_all
+
+ROUNDOFF_ABS = 1e-9
+ROUNDOFF_REL = 1e-6
+KEY = ("case", "variant", "engine_variant", "integrator", "dt", "params", "timed")
+CONTROL = DEFECTS["control"]
+
+
+# ---------------------------------------------------------------------------------------------
+# The verdict question: one function, so that it follows the verdict columns
+# ---------------------------------------------------------------------------------------------
+def caught(defect_rows, correct_rows) -> str | None:
+    """The reason of the first defect row that the verdicts catch, None when none is caught.
+    Rows pair up in order (the defect's and the control's run of the same job). A row is
+    caught when it is inconsistent with its named method, misses the case's accuracy target
+    where the control's row reaches it, or is diverged or failed where the control's is ok."""
+    for d, c in zip(defect_rows, correct_rows):
+        label = f"{d['variant']} dt={d['dt']:.3g}"
+        if d["status"] in ("diverged", "failed") and c["status"] == "ok":
+            return f"{label}: {d['status']}: {d['reason']}"
+        if d["status"] != "ok":
+            continue
+        if d["consistency"] == "inconsistent":
+            return f"{label}: inconsistent: {d['consistency_reason']}"
+        if not _true(d["reaches_target"]) and c["status"] == "ok" and _true(c["reaches_target"]):
+            return (f"{label}: misses the target {d['target_error']:.3g} where the control "
+                    "reaches it")
+    return None
+
+
+def _true(value) -> bool:
+    return value is True or value in (1, "True", "true") or (
+        not isinstance(value, str) and bool(value) and value == value)
+
+
+# ---------------------------------------------------------------------------------------------
+# Jobs
+# ---------------------------------------------------------------------------------------------
+def base_jobs(cases=None, quick=False):
+    """The refsim jobs of the default (or quick) matrix that run (an engine that supports no
+    case gives rows without a dt: left out)."""
+    return [j for j in expand(cases=cases, engines=["refsim"], quick=quick) if j.dt == j.dt]
+
+
+def defect_jobs(defect, jobs, scenes=None) -> list:
+    """The jobs the defect can touch, re-labelled to its engine."""
+    scenes = {} if scenes is None else scenes
+    out = []
+    for job in jobs:
+        key = (job.case, job.variant, job.params)
+        if key not in scenes:
+            case = get_case(job.case)
+            scenes[key] = case.scene(case.variant_params(job.variant, dict(job.params)))
+        if defect.touches(scenes[key], job.integrator):
+            out.append(replace(job, engine=defect.engine))
+    return out
+
+
+def _size(job) -> float:
+    case = get_case(job.case)
+    return case.work(case.variant_params(job.variant, dict(job.params)), job.dt)
+
+
+def run_jobs(jobs, workers: int = 2) -> pd.DataFrame:
+    """Every job's row (accuracy pass only), with the order fits over the whole table."""
+    register_all()
+    executor = executors.InProcess() if workers <= 1 else executors.Local(workers)
+    tasks = [(job, "planted", 0, 0.0) for job in jobs]
+    rows = [row for _, row in executor.results(tasks, size=_size)]
+    return with_orders(pd.DataFrame(rows)) if rows else pd.DataFrame()
+
+
+# ---------------------------------------------------------------------------------------------
+# Comparison
+# ---------------------------------------------------------------------------------------------
+def _key(row) -> tuple:
+    return tuple(row[k] for k in KEY)
+
+
+def _scale_and_column(row, cache={}):
+    key = (row["case"], row["variant"], row["params"])
+    if key not in cache:
+        case = get_case(row["case"])
+        p = case.variant_params(row["variant"], json.loads(row["params"]))
+        cache[key] = (float(case.motion_scale(p)), case.tolerance_column(p))
+    return cache[key]
+
+
+def unreachable(row) -> bool:
+    return row["status"] == "failed" and UNREACHABLE in str(row["reason"])
+
+
+def matters(d, c) -> bool:
+    """Whether the defect's row differs from the control's beyond round-off (module doc)."""
+    if unreachable(d):
+        return False
+    if d["status"] != c["status"]:
+        return True
+    if d["status"] != "ok":
+        return False
+    scale, column = _scale_and_column(c)
+    for col in dict.fromkeys(("err_max", column)):
+        a, b = float(d[col]), float(c[col])
+        if math.isnan(a) != math.isnan(b):
+            return True
+        if not math.isnan(a) and abs(a - b) > ROUNDOFF_ABS * scale + ROUNDOFF_REL * abs(b):
+            return True
+    return False
+
+
+def summarise(name: str, table: pd.DataFrame, control: dict) -> dict:
+    """One line of the table for defect `name`: rows run, unreachable rows, cases and
+    (case, integrator) pairs where it matters, pairs caught, first message, missed pairs."""
+    rows = table[table["engine"] == DEFECTS[name].engine].to_dict("records")
+    pairs: dict = {}
+    for d in rows:
+        c = control[_key(d)]
+        if matters(d, c):
+            pairs.setdefault((d["case"], d["integrator"]), []).append((d, c))
+    found = {pair: caught(*zip(*both)) for pair, both in pairs.items()}
+    first = next((why for why in found.values() if why), "")
+    hit = [pair for pair, why in found.items() if why]
+    missed = [pair for pair, why in found.items() if not why]
+    return {"defect": name, "rows": len(rows),
+            "unreachable": sorted({r["case"] for r in rows if unreachable(r)}),
+            "cases": sorted({case for case, _ in pairs}), "pairs": len(pairs),
+            "caught": len(hit), "pct": 100.0 * len(hit) / len(pairs) if pairs else float("nan"),
+            "first": f"{hit[0][0]} {hit[0][1]}: {first}" if hit else "", "missed": missed}
+
+
+def false_alarms(table: pd.DataFrame) -> pd.DataFrame:
+    """The control's rows that are inconsistent, diverged or failed."""
+    c = table[table["engine"] == CONTROL.engine]
+    bad = c["status"].isin(["diverged", "failed"]) | (c["consistency"] == "inconsistent")
+    return c[bad]
+
+
+# ---------------------------------------------------------------------------------------------
+# The run
+# ---------------------------------------------------------------------------------------------
+def run(defects=None, cases=None, quick=False, workers: int = 2):
+    """(summaries, table, seconds) for the named defects (all but the control by default)."""
+    t0 = time.perf_counter()
+    names = [n for n in (defects or DEFECTS) if n != CONTROL.name]
+    for n in names:
+        if n not in DEFECTS:
+            raise ValueError(f"defect must be one of {list(DEFECTS)}, got {n!r}")
+    base, scenes = base_jobs(cases, quick), {}
+    per_defect = {n: defect_jobs(DEFECTS[n], base, scenes) for n in names}
+    keys = {(j.case, j.variant, j.engine_variant, j.integrator, j.dt, j.params, j.timed)
+            for jobs in per_defect.values() for j in jobs}
+    control_jobs = [replace(j, engine=CONTROL.engine) for j in base if
+                    (j.case, j.variant, j.engine_variant, j.integrator, j.dt, j.params,
+                     j.timed) in keys]
+    table = run_jobs(control_jobs + [j for n in names for j in per_defect[n]], workers)
+    control = {_key(r): r for r in table[table["engine"] == CONTROL.engine].to_dict("records")}
+    summaries = [summarise(n, table, control) for n in names]
+    return summaries, table, time.perf_counter() - t0
+
+
+def render(summaries, alarms: pd.DataFrame, seconds: float, rows: int) -> str:
+    head = f"{'defect':<24} {'cases':>5} {'pairs':>5} {'caught':>6} {'%':>5}  first message"
+    lines = [head, "-" * len(head)]
+    for s in summaries:
+        pct = "-" if math.isnan(s["pct"]) else f"{s['pct']:.0f}"
+        lines.append(f"{s['defect']:<24} {len(s['cases']):>5} {s['pairs']:>5} "
+                     f"{s['caught']:>6} {pct:>5}  {s['first'][:160]}")
+    lines.append("")
+    for s in summaries:
+        lines.append(f"{s['defect']}: matters on {', '.join(s['cases']) or 'nothing'}")
+        if s["missed"]:
+            lines.append("  missed: " + ", ".join(f"{c}/{i}" for c, i in s["missed"]))
+        if s["unreachable"]:
+            lines.append("  unreachable (nothing to change in the sim): "
+                         + ", ".join(s["unreachable"]))
+    lines.append("")
+    lines.append(f"control false alarms (inconsistent, diverged or failed): {len(alarms)}")
+    for _, r in alarms.iterrows():
+        why = r["consistency_reason"] if r["status"] == "ok" else r["reason"]
+        lines.append(f"  {r['case']}/{r['variant']} {r['integrator']} dt={r['dt']:.3g} "
+                     f"{r['status']}: {str(why)[:140]}")
+    lines.append(f"{rows} rows in {seconds:.0f} s")
+    return "\n".join(lines)
