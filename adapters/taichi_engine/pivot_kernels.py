@@ -13,15 +13,17 @@ Evaluated as refsim's orthogonal formulations do, in the body frame:
 Steppers (`ti.func`, state in registers), the free bodies' (`rigid_kernels`) on (q, w):
 - "symplectic_euler": w_{k+1} = w_k + h w'(q_k, w_k), then q moved by the rotation vector
   h w_{k+1};
-- "rk4": classical RK4 in the RKMK-lite retraction form (stage orientations exp(h sum_j a_ij
-  W_j / 2) (x) q from the base point, no dexp^-1 correction): order 2 on the rotation group.
+- "rk4": classical RK4 as Runge-Kutta-Munthe-Kaas, `rigid_kernels.rkmk4` with `pivot_accel`:
+  stage slopes K_i = dexp^-1_{phi_i} W_i (quat_exp) or dcay^-1_{phi_i} W_i (quat_normalised,
+  the Cayley map) at the stage increments phi_i = h sum_j a_ij K_j, refsim's explicit RK with
+  the `dexpinv` hook of `PivotedRigidSystem`: order 4 on the rotation group.
 Orientation updates: `rigid_kernels.rotate_by` (quat_exp, quat_normalised with the squared norms
 removed multiplied into `norm_product`), selected by the argpack's runtime `normalise` flag.
 Loops: bodies outermost (parallel), each body's n steps serial inside (bit-reproducible).
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """
 from .kernel_types import f64, nd_f64, nd_vec3, ti
-from .rigid_kernels import FORMULATIONS, nd_mat3, nd_vec4, quat_matrix, rotate_by
+from .rigid_kernels import FORMULATIONS, nd_mat3, nd_vec4, quat_matrix, rkmk4, rotate_by
 
 __all__ = ["FORMULATIONS", "STEPPERS", "pivot_kernels", "pivot_t"]
 
@@ -49,19 +51,8 @@ def symplectic_euler(P: ti.template(), i, q, w, norm_product, h):
 
 @ti.func
 def rk4(P: ti.template(), i, q, w, norm_product, h):
-    """RKMK-lite classical RK4 on (q, w) (see the module docstring)."""
-    W1 = w
-    A1 = pivot_accel(P, i, q, W1)
-    W2 = w + (0.5 * h) * A1
-    A2 = pivot_accel(P, i, rotate_by(P, q, (0.5 * h) * W1, 1.0)[0], W2)
-    W3 = w + (0.5 * h) * A2
-    A3 = pivot_accel(P, i, rotate_by(P, q, (0.5 * h) * W2, 1.0)[0], W3)
-    W4 = w + h * A3
-    A4 = pivot_accel(P, i, rotate_by(P, q, h * W3, 1.0)[0], W4)
-    turn = (h / 6.0) * W1 + (h / 3.0) * W2 + (h / 3.0) * W3 + (h / 6.0) * W4
-    w1 = w + (h / 6.0) * A1 + (h / 3.0) * A2 + (h / 3.0) * A3 + (h / 6.0) * A4
-    q1, norm1 = rotate_by(P, q, turn, norm_product)
-    return q1, w1, norm1
+    """RKMK4 on (q, w) (see the module docstring)."""
+    return rkmk4(P, i, q, w, norm_product, h, pivot_accel)
 
 
 STEPPERS = {"symplectic_euler": symplectic_euler, "rk4": rk4}

@@ -1,6 +1,6 @@
 """Free rigid bodies (Newton-Euler, world frame) as float64 taichi kernels: the model of
-common13 (issue 13) that refsim's numpy rigid model follows, so the two agree to round-off at
-equal formulation and stepper.
+common13 (issue 13) that refsim's numpy rigid model follows, and the same steppers, so the two
+agree to round-off at equal formulation and stepper.
 
 Per body: x (world COM), v (world), q (unit quaternion (w, x, y, z), body to world), w (world
 angular velocity). Forces: gravity only (m v' = m g; no torque about the COM), so
@@ -12,23 +12,33 @@ rotation R commutes with the cross product), one 3x3 inverse per body made once 
 Steppers (`ti.func`, one signature, state in registers):
 - "symplectic_euler": v, w first from the state at k (w_{k+1} = w_k + h w'(q_k, w_k)), then
   x_{k+1} = x_k + h v_{k+1} and the orientation moved by the rotation vector h w_{k+1};
-- "rk4": classical 4-stage RK in the "RKMK-lite" retraction form of refsim's explicit RK
-  (refsim/integrators/explicit_rk.py): stage orientations Q_i = exp(h sum_j a_ij W_j / 2) (x) q
-  from the base point, q_1 = exp(h sum_i b_i W_i / 2) (x) q (no dexp^-1 correction);
-  positions by plain addition (exact under constant gravity).
+- "rk4": classical RK4 as Runge-Kutta-Munthe-Kaas (RKMK4; Munthe-Kaas 1998, Iserles et al.,
+  Acta Numerica 2000, sec. 4), the method of refsim's explicit RK with the `dexpinv` hook
+  (refsim/integrators/explicit_rk.py, refsim/models/rigid_orientation.py), `rkmk4` below:
+      K_1 = w,  A_1 = w'(q, w),   for i = 2..4:  phi_i = h sum_j a_ij K_j,
+      W_i = w + h sum_j a_ij A_j,  K_i = dmap^-1_{phi_i} W_i,  A_i = w'(q (+) phi_i, W_i),
+      q_1 = q (+) h sum_i b_i K_i,  w_1 = w + h sum_i b_i A_i,
+  q (+) phi the formulation's update below and dmap^-1 the inverse differential of its map
+  phi -> q (+) phi: dexp^-1 under quat_exp, dcay^-1 (the Cayley map) under quat_normalised
+  (`stage_slope`). The correction keeps RK4's order 4 on the rotation group (without it,
+  "RKMK-lite", the dropped commutators leave order 2). Positions by plain addition,
+  x_1 = x + h v + h^2/2 g (exact under constant gravity; refsim's stage sum, to round-off).
 Orientation updates (the formulation, a runtime i32 in the argpack, no recompilation):
 - quat_exp (0): q <- exp(a / 2) (x) q, a the rotation vector, exp of a pure quaternion
   (cos|b|, sin|b| b / |b|) with b = a / 2;
-- quat_normalised (1): q <- normalise(q + 1/2 (0, a) (x) q); the squared norm removed by each
-  normalisation is multiplied into `norm_product` (per body), so norm_product - 1 is the
-  cumulative drift that the normalisation hid (exact discrete value at constant w:
-  (1 + h^2 |w|^2 / 4)^k).
+- quat_normalised (1): q <- normalise(q + 1/2 (0, a) (x) q) (= cay(a) (x) q, the Cayley map);
+  the squared norm removed by each normalisation is multiplied into `norm_product` (per body),
+  so norm_product - 1 is the cumulative drift that the normalisation hid (exact discrete value
+  at constant w: (1 + h^2 |w|^2 / 4)^k). RK4's stage orientations leave it alone: only the
+  accepted update multiplies it in, as refsim's fifth column does.
 Loops: bodies are independent, so the outermost loop runs over bodies (parallel, over
 `cpu_max_num_threads` threads) and each body's time loop runs inside it, serially, with the
 state in registers: one launch advances n steps of every body, bit-reproducible at any thread
 count (no body reads another's state).
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """
+from refsim.models.rigid_orientation import SMALL_ANGLE
+
 from .kernel_types import f64, i32, nd_f64, nd_vec3, ti, vec3
 
 vec4 = ti.types.vector(4, f64)
@@ -86,6 +96,68 @@ def rotate_by(P: ti.template(), q, a, norm_product):
     return q1, norm_product
 
 
+# -- RK4 on the rotation group (RKMK4): the maps' inverse differentials, the stage loop ------------
+@ti.func
+def dexp_inverse(phi, a):
+    """dexp^-1_phi a on so(3) as 3-vectors: a - 1/2 phi x a + (1 - (t/2) cot(t/2)) / t^2
+    phi x (phi x a), t = |phi|; the limit 1/12 below refsim's SMALL_ANGLE (its closed form
+    and guard, rigid_orientation.dexp_inverse: the coefficient's round-off eps / t^2 meets a
+    term of size t^2 |a|, eps |a| overall)."""
+    angle = phi.norm()
+    coef = 1.0 / 12.0
+    if angle > SMALL_ANGLE:
+        half = 0.5 * angle
+        coef = (1.0 - half / ti.tan(half)) / (4.0 * half * half)
+    phi_x_a = phi.cross(a)
+    return a - 0.5 * phi_x_a + coef * phi.cross(phi_x_a)
+
+
+@ti.func
+def dcay_inverse(phi, a):
+    """dcay^-1_phi a = a - 1/2 phi x a + 1/4 phi (phi . a): the inverse differential of the
+    Cayley map that quat_normalised's update is (rigid_orientation.dcay_inverse)."""
+    return a - 0.5 * phi.cross(a) + (0.25 * phi) * phi.dot(a)
+
+
+@ti.func
+def stage_slope(P: ti.template(), phi, a):
+    """K = dmap^-1_phi a for the formulation of P: dcay^-1 (quat_normalised), else dexp^-1."""
+    k = a
+    if P.normalise:
+        k = dcay_inverse(phi, a)
+    else:
+        k = dexp_inverse(phi, a)
+    return k
+
+
+@ti.func
+def turned(P: ti.template(), q, phi):
+    """A stage orientation q (+) phi (its normalisation's squared norm not recorded)."""
+    return rotate_by(P, q, phi, 1.0)[0]
+
+
+@ti.func
+def rkmk4(P: ti.template(), i, q, w, norm_product, h, accel: ti.template()):
+    """One RKMK4 step of (q, w) for body i (module docstring), w' = accel(P, i, q, w); the
+    products with h as refsim forms them (h a_ij, h b_i: (1/6) h, not h / 6), the sums in its
+    order. Returns (q_1, w_1, norm_product_1)."""
+    half, sixth, third = 0.5 * h, (1.0 / 6.0) * h, (1.0 / 3.0) * h
+    A1 = accel(P, i, q, w)  # K_1 = w
+    phi2, W2 = half * w, w + half * A1
+    K2 = stage_slope(P, phi2, W2)
+    A2 = accel(P, i, turned(P, q, phi2), W2)
+    phi3, W3 = half * K2, w + half * A2
+    K3 = stage_slope(P, phi3, W3)
+    A3 = accel(P, i, turned(P, q, phi3), W3)
+    phi4, W4 = h * K3, w + h * A3
+    K4 = stage_slope(P, phi4, W4)
+    A4 = accel(P, i, turned(P, q, phi4), W4)
+    turn = sixth * w + third * K2 + third * K3 + sixth * K4
+    w1 = w + sixth * A1 + third * A2 + third * A3 + sixth * A4
+    q1, norm1 = rotate_by(P, q, turn, norm_product)
+    return q1, w1, norm1
+
+
 # -- physics --------------------------------------------------------------------------------------
 @ti.func
 def angular_accel(P: ti.template(), i, q, w):
@@ -107,19 +179,9 @@ def symplectic_euler(P: ti.template(), i, x, v, q, w, norm_product, h):
 
 @ti.func
 def rk4(P: ti.template(), i, x, v, q, w, norm_product, h):
-    """RKMK-lite classical RK4 (stage orientations from the base point q; see the module
-    docstring); v' = g is constant, so every stage velocity slope is g."""
-    W1 = w
-    A1 = angular_accel(P, i, q, W1)
-    W2 = w + (0.5 * h) * A1
-    A2 = angular_accel(P, i, rotate_by(P, q, (0.5 * h) * W1, 1.0)[0], W2)
-    W3 = w + (0.5 * h) * A2
-    A3 = angular_accel(P, i, rotate_by(P, q, (0.5 * h) * W2, 1.0)[0], W3)
-    W4 = w + h * A3
-    A4 = angular_accel(P, i, rotate_by(P, q, h * W3, 1.0)[0], W4)
-    turn = (h / 6.0) * W1 + (h / 3.0) * W2 + (h / 3.0) * W3 + (h / 6.0) * W4
-    w1 = w + (h / 6.0) * A1 + (h / 3.0) * A2 + (h / 3.0) * A3 + (h / 6.0) * A4
-    q1, norm1 = rotate_by(P, q, turn, norm_product)
+    """RKMK4 on (q, w) (`rkmk4`); v' = g is constant, so the stage sum of the positions is
+    x + h v + h^2/2 g, written out."""
+    q1, w1, norm1 = rkmk4(P, i, q, w, norm_product, h, angular_accel)
     x1 = x + h * v + (0.5 * h * h) * P.gravity
     return x1, v + h * P.gravity, q1, w1, norm1
 

@@ -6,7 +6,8 @@ the centre of mass on its sphere exactly (x = anchor + R c), no constraint force
 
 Claims scenes of rigid bodies and a RigidPivots part, every body pivoted once. Formulations
 (engine variants): "quat_exp" and "quat_normalised" (rigid_kernels.rotate_by). Integrators:
-symplectic_euler, rk4 (RKMK-lite: order 2 on the rotation group).
+symplectic_euler, rk4 (RKMK4, rigid_kernels.rkmk4: the dexp^-1 / dcay^-1 stage correction,
+order 4 on the rotation group).
 
 Observables, as refsim's pivots group: x (anchor + R c), v (w x R c), q, w (world), and the
 extras "orientation_defect" (n,) (|q|^2 - 1 under quat_exp; the product of the squared norms
@@ -30,12 +31,15 @@ from .rigid import (
     INTEGRATORS,
     ORIENTATION,
     ORIENTATION_DEFECT,
+    STAGE_CORRECTION,
     rotation_matrices,
 )
 
 NATIVE = {"symplectic_euler": "kernel symplectic_euler: w += h w'(q, w); q moved by h w (new w)",
-          "rk4": "kernel rk4: classical RK4 on (q, w), stage orientations exp(h sum a_ij W_j / "
-                 "2) (x) q from the base point (RKMK-lite, no dexp^-1 correction)"}
+          "rk4": "kernel rk4: classical RK4 on (q, w) as Runge-Kutta-Munthe-Kaas (RKMK4): "
+                 "stage orientations q (+) h sum a_ij K_j from the base point, stage slopes "
+                 "K_i = dexp^-1 W_i (quat_exp) or dcay^-1 W_i (quat_normalised, Cayley map) "
+                 "at the stage increment, as refsim's explicit RK with its dexpinv hook"}
 NOT_SYMPLECTIC = ("w is stepped with the explicit gyroscopic term w x (I_p w) (not a momentum or "
                   "Lie-Poisson step): a tumbling top's energy drifts secularly")
 
@@ -127,6 +131,7 @@ class PivotSim(KernelSim):
                 else "explicit Runge-Kutta"}
         return {**base, "integrator": info, "formulation": self.formulation,
                 "orientation_update": ORIENTATION[self.formulation],
+                "rk_stage_correction": STAGE_CORRECTION[self.formulation],
                 "model": "I_p w' + w x (I_p w) = (R c) x m g, I_p = R I_pivot R^T, evaluated "
                          "as w' = R I_pivot^-1 (-(w_b x I_pivot w_b) + R^T tau), w_b = R^T w",
                 "pivot": "ball joint in generalized coordinates (orientation only): the "
