@@ -22,15 +22,18 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import ellipe, ellipj, ellipk
 
-from refsim.case import ADAPTIVE_REASON, Param, adaptive_rtol, order_tolerance, roundoff_tolerance
+from refsim.case import ADAPTIVE_REASON, Param, adaptive_rtol, roundoff_tolerance
 from refsim.scene import RigidBodies, Scene
 
 from . import RigidCase, quat_to_matrix, rotation_quaternion
+from ._bounds import (KICK_METHODS, KICK_REASON, PRINTED_REASON, gyroscopic_rate, method_name,
+                      mode_error)
 
 # attitude at t = 0: the rotation by 1.15 rad about (0.6, -0.9, 0.4)/|.|, no axis left in place
 INITIAL_ROTATION_VECTOR = (0.6, -0.9, 0.4)
 NEAR_SEPARATRIX_K2 = 1.0 - 1e-4
 DRIFT_VELOCITY = (0.1, -0.05, 0.02)  # m/s, the centre of mass's free flight
+SAFETY = 2.0  # the one safety factor of the bound (tolerance)
 
 
 def moments(p) -> np.ndarray:
@@ -200,23 +203,46 @@ class Dzhanibekov(RigidCase):
         return 1.0 + period_sensitivity(p) * invariants(p)["rate"] * self.t_end(p)
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        scale, c = self.motion_scale(p), invariants(p)
-        omega = max(float(np.linalg.norm(c["amplitudes"])), c["rate"])
-        omega_t, gain = omega * self.t_end(p), self._amplification(p)
+        """SAFETY x |w0| n (|phi(y)| + |alpha(y)| (1 + G/2)), y = max|w| h, n = t / h: the
+        named method's phase and amplitude errors per step on an oscillation at the body's
+        angular speed (`_bounds.mode_error`, from its stability function), G = S rate t the
+        flip-timing gain of an energy error; plus the kick-drift and printed-matrix terms and
+        round-off times 1 + G."""
+        scale, gain = self.motion_scale(p), self._amplification(p) - 1.0
         rtol = adaptive_rtol(integrator)
         if rtol is not None:
-            return 10 * rtol * scale * omega_t * gain, ADAPTIVE_REASON + (
-                f", times the flip-timing amplification 1 + S rate t = {gain:.3g}")
-        base = order_tolerance(scale, omega_t, omega * dt, order, symplectic=False)
-        roundoff, roundoff_reason = roundoff_tolerance(int(round(self.t_end(p) / dt)), scale)
-        reason = (f"order {order}: |w0| expm1(W t (W dt)^p), W = max(Wmax, rate) = {omega:.3g} "
-                  "rad/s (see order_tolerance), taken non-symplectic for every method: the "
-                  "explicit gyroscopic term w x I w of a semi-implicit step raises |L| by "
-                  "(1 + h^2 |w x L|^2/|L|^2)^(1/2) a step, a secular energy error; times the "
-                  f"flip-timing amplification 1 + S rate t = {gain:.3g} (S = "
-                  f"{period_sensitivity(p):.3g}, see period_sensitivity: an energy or momentum "
-                  "error moves the flip; near the separatrix dlnK/dm ~ 1/(2 (1 - m) K))")
-        return (base + roundoff) * gain, reason + roundoff_reason
+            omega_t = max(float(np.linalg.norm(invariants(p)["amplitudes"])),
+                          invariants(p)["rate"]) * self.t_end(p)
+            return 10 * rtol * scale * omega_t * (1.0 + gain), ADAPTIVE_REASON + (
+                f", times the flip-timing amplification 1 + S rate t = {1.0 + gain:.3g}")
+        speed, kick = orbit_rates(p)
+        steps = self.t_end(p) / dt
+        printed = engine_variant == "matrix_printed"
+        bound = SAFETY * mode_error(integrator, [(scale, speed)], dt, steps, gain,
+                                    kick=(scale, kick),
+                                    printed=(scale, speed) if printed else None)
+        roundoff, roundoff_reason = roundoff_tolerance(int(round(steps)), scale)
+        reason = (f"order {order}: {SAFETY:g} |w0| n (|phi(y)| + |alpha(y)| (1 + G/2)), y = "
+                  f"max|w| h = {speed * dt:.3g}, n = {steps:.0f}: the method's phase and "
+                  "amplitude errors per step (refsim.expected.oscillator_rates) on the world "
+                  f"angular velocity, which turns with the body at up to max|w| = {speed:.3g} "
+                  f"rad/s (amplitude |w0| = {scale:.3g}); G = S rate t = {gain:.3g} the "
+                  "flip-timing gain of an energy error (period_sensitivity), half of it over a "
+                  f"linearly growing error; safety factor {SAFETY:g}")
+        if method_name(integrator) in KICK_METHODS:
+            reason += KICK_REASON.format(rate=kick, amplitude=scale)
+        if printed:
+            reason += PRINTED_REASON.format(rate=speed)
+        return bound + roundoff * (1.0 + gain), reason + roundoff_reason + (
+            f", times 1 + G = {1.0 + gain:.3g}")
+
+
+def orbit_rates(p) -> tuple[float, float]:
+    """(max |w|, the gyroscopic rate) over one period of the closed form (256 points): the
+    body's fastest turning, and the largest spectral radius of the gyroscopic term's Jacobian
+    (`_bounds.gyroscopic_rate`)."""
+    w = exact_body_omega(p, np.linspace(0.0, flip_period(p), 256, endpoint=False))
+    return float(np.max(np.linalg.norm(w, axis=1))), gyroscopic_rate(moments(p), w)
 
 
 CASE = Dzhanibekov()
