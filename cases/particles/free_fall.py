@@ -1,5 +1,7 @@
 """Free fall: a point mass from (x0, v0) under gravity, with optional linear drag f = -b v.
 
+Default mass 2 kg (not 1, so that an engine forgetting to divide the drag, or a gravity force
+m g, by the mass fails); the drag variant's b = 1 kg/s gives tau = m / b = 2 s.
 Reference (closed form): without drag x(t) = x0 + v0 t + g t^2 / 2; with drag, tau = m / b and
 terminal velocity v_inf = g tau, v(t) = v_inf + (v0 - v_inf) e^{-t/tau},
 x(t) = x0 + v_inf t + (v0 - v_inf) tau (1 - e^{-t/tau}).
@@ -13,8 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol, roundoff_tolerance
+from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance
+from refsim.expected import discrete_solution
 from refsim.scene import Body, Scene
+
+from .stiff_spring import adaptive_bound, sample_steps
 
 
 class FreeFall(Case):
@@ -23,7 +28,7 @@ class FreeFall(Case):
     tags = ("particle", "gravity", "exact")
     observable, units = "position", "m"
     params = {
-        "mass": Param(1.0, 0.0, 1e6, "kg", low_inclusive=False),
+        "mass": Param(2.0, 0.0, 1e6, "kg", low_inclusive=False),
         "height": Param(10.0, -1e6, 1e6, "initial z (m)"),
         "vx0": Param(1.0, -1e4, 1e4, "initial x velocity (m/s)"),
         "vz0": Param(5.0, -1e4, 1e4, "initial z velocity (m/s)"),
@@ -31,7 +36,7 @@ class FreeFall(Case):
         "drag": Param(0.0, 0.0, 1e6, "linear drag coefficient b (kg/s)"),
         "duration": Param(2.0, 0.0, 1e4, "s", low_inclusive=False),
     }
-    variants = {"default": {}, "drag": {"drag": 0.5}}
+    variants = {"default": {}, "drag": {"drag": 1.0}}
 
     def scene(self, p):
         body = Body(mass=p["mass"], position=(0.0, 0.0, p["height"]),
@@ -48,7 +53,7 @@ class FreeFall(Case):
 
     def order_dts(self, p):
         """Coarser steps for the convergence order only (accuracy pass, no timing): an order-4
-        method on the drag variant (tau = 2 s) errs 4e-12 at 4 ms, below the floor; at
+        method on the drag variant (tau = m / b = 2 s) errs 4e-12 at 4 ms, below the floor; at
         15.6..250 ms (dt/tau <= 1/8) it errs 6e-10..4e-5 on its asymptotic slope."""
         return [0.25, 0.0625, 0.015625]
 
@@ -96,27 +101,54 @@ class FreeFall(Case):
         return abs(p["height"]) + np.hypot(p["vx0"], p["vz0"]) * t + 0.5 * p["g"] * t * t
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        t = p["duration"]
-        a_max = p["g"] + p["drag"] / p["mass"] * np.hypot(p["vx0"], p["vz0"])
-        scale = self.motion_scale(p)
+        """The named method's own error: its exact discrete solution (refsim.expected) on
+        x'' = -(b/m) v + g, made linear by a constant coordinate s = 1 (x'' = A x + B v with
+        A's column for s holding g), against the closed form, max over the samples the
+        harness observes (err_max), plus round-off. (Without drag every method of order >= 2
+        is exact on the quadratic and Euler's steps err k (k +- 1) dt^2 g / 2: the discrete
+        solution gives both.) dopri5_adaptive: Dormand-Prince's local errors at the largest
+        step its controller accepts along the motion (stiff_spring.adaptive_bound)."""
+        t_end = p["duration"]
+        a, b = self._linear(p)
         # |x| <= scale; a velocity rounding eps/2 |v|, |v| <= |v0| + g t, is carried over at
         # most t: eps/2 (|v0| t + g t^2) <= eps scale. One rounding: at most 1.5 eps scale
-        roundoff, roundoff_reason = roundoff_tolerance(max(1, int(round(t / dt))), 1.5 * scale)
-        rtol = adaptive_rtol(integrator)
-        if rtol is not None and p["drag"] > 0:
-            return 10 * rtol * scale * max(1.0, t * p["drag"] / p["mass"]) + roundoff, \
-                ADAPTIVE_REASON + roundoff_reason
-        if p["drag"] == 0 and order >= 2:
-            return roundoff, ("exact for any method of order >= 2 (x is quadratic in t): "
-                              "round-off only" + roundoff_reason)
-        if order == 1 or p["drag"] == 0:
-            return a_max * t * dt / 2 + roundoff, ("first order: the error of every Euler step "
-                                                  "on constant acceleration is a t dt / 2"
-                                                  + roundoff_reason)
-        tau = p["mass"] / p["drag"]
-        return a_max * t * dt ** order / tau ** (order - 1) + roundoff, (
-            f"order {order} on an exponential of time constant tau: a_max t dt^p / tau^(p-1) "
-            "(leading error constant taken as 1)" + roundoff_reason)
+        state_scale = 1.5 * self.motion_scale(p)
+        if adaptive_rtol(integrator) is not None:
+            return self._adaptive(p, integrator, dt, a, b, state_scale)
+        steps = int(round(t_end / dt))
+        k = sample_steps(steps, int(round(self.sample_dt(p) / dt)))
+        x0, v0 = self._start(p)
+        x, _ = discrete_solution(integrator, a, b, x0, v0, dt, k)
+        ref = self.reference(p, k * dt)["position"]
+        deviation = float(np.max(np.linalg.norm(x[:, :3] - ref, axis=1)))
+        roundoff, roundoff_reason = roundoff_tolerance(steps, state_scale)
+        return deviation + roundoff, (
+            f"{integrator}'s exact discrete solution on x'' = -(b/m) v + g (b/m = "
+            f"{p['drag'] / p['mass']:.3g} /s, dt = {dt:.3g} s; refsim.expected, g carried by a "
+            f"constant coordinate) errs {deviation:.3g} m from the closed form at the "
+            f"{len(k)} samples (max)" + roundoff_reason)
+
+    @staticmethod
+    def _linear(p):
+        """(A, B) of x'' = A x + B v on (x, y, z, s), s = 1 the constant carrying g."""
+        a, b = np.zeros((4, 4)), np.diag([-p["drag"] / p["mass"]] * 3 + [0.0])
+        a[2, 3] = -p["g"]
+        return a, b
+
+    @staticmethod
+    def _start(p):
+        return np.array([0.0, 0.0, p["height"], 1.0]), np.array([p["vx0"], 0.0, p["vz0"], 0.0])
+
+    def _adaptive(self, p, integrator, dt, a, b, state_scale, samples=4000):
+        def states(t):
+            ref = self.reference(p, t)
+            one, zero = np.ones((len(t), 1)), np.zeros((len(t), 1))
+            return np.hstack([ref["position"], one, ref["velocity"], zero])
+
+        t = np.linspace(0.0, p["duration"], samples)
+        return adaptive_bound(integrator, a, b, t, states(t), states, dt,
+                              lambda e: np.linalg.norm(e[:, :3], axis=1), state_scale,
+                              components=3, physical=(0, 1, 2))
 
 
 CASE = FreeFall()

@@ -9,6 +9,7 @@ import pytest
 from cases.particles.stiff_spring import CASE
 from refsim.integrators import ExplicitRK, Tableau, get_integrator
 from refsim.job import Job, run_job
+from refsim.registry import get_case
 from refsim.runner import expand
 
 # Kutta's third-order method (Butcher 2016, sec. 233): an "rk4" one order short
@@ -19,10 +20,10 @@ IMPOSTORS = {"heun": lambda: get_integrator("heun"),
              "explicit_euler": lambda: get_integrator("explicit_euler")}
 
 
-def named_bound(row, p, named, case=CASE):
-    """The bound case.tolerance gives the NAMED method at the row's dt (its order and
+def named_bound(row, p, named):
+    """The bound the row's case gives the NAMED method at the row's dt (its order and
     description, whatever ran)."""
-    method = get_integrator(named)
+    case, method = get_case(row["case"]), get_integrator(named)
     settings = {**json.loads(row["settings"]), "integrator": method.describe()}
     return case.tolerance(p, named, method.order, row["dt"], row["engine_variant"],
                           settings)[0]
