@@ -5,6 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from cases.rigid.compound_pendulum import CASE, rod_rate, small_swing_periods
+from cases.rigid._defects import defect_error
 from refsim.registry import get_engine
 
 ENGINE = get_engine("refsim")
@@ -91,3 +92,20 @@ def test_bad_input():
         CASE.validate({"theta0": 4.0})
     with pytest.raises(ValueError, match="length"):
         CASE.validate({"length": 0.0})
+
+
+@pytest.mark.parametrize("defect", ["heun_as_rk4", "rk3_as_rk4"])
+def test_an_rk4_that_is_heun_or_kutta_rk3_exceeds_the_rk4_bound_at_every_dt(defect):
+    p = CASE.variant_params('default')
+    for dt in CASE.dts(p):
+        tol = CASE.tolerance(p, "rk4", 4, dt, "quat_exp")[0]
+        assert defect_error(CASE, p, defect, "rk4", dt) > tol, (defect, dt)
+
+
+@pytest.mark.parametrize("defect", ["gravity_plus_0.1pct", "rest_length_plus_0.5pct",
+                                    "velocity_damping"])
+def test_a_wrong_parameter_exceeds_the_rk4_bound_at_the_finest_dt(defect):
+    p = CASE.variant_params('default')
+    dt = min(CASE.dts(p))
+    assert defect_error(CASE, p, defect, "rk4", dt) > \
+        CASE.tolerance(p, "rk4", 4, dt, "quat_exp")[0], defect
