@@ -20,10 +20,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import Param, adaptive_rtol, order_tolerance, roundoff_tolerance
+from refsim.case import EPS, Param, adaptive_rtol, roundoff_tolerance
+from refsim.expected import oscillator_rates
 from refsim.scene import RigidBodies, Scene
 
 from . import RigidCase, quat_multiply, rotation_angle_between, rotation_quaternion
+from ._bounds import (KICK_METHODS, chart_step_angle, euler_amplitude_rate, gyroscopic_rate,
+                      method_name)
 
 FORMULATIONS = ("matrix_printed", "matrix_polar", "quat_normalised", "quat_exp")
 PRINCIPAL_MOMENTS = (1.0, 2.0, 3.0)  # kg m^2; the spin is about the third (largest) axis
@@ -161,22 +164,72 @@ class SpinDrift(RigidCase):
         <= 2 eps."""
         return roundoff_tolerance(int(round(p["duration"] / dt)), 2.0)
 
+    def gyroscopic_rate(self, p) -> float:
+        """lambda = |w| sqrt((I3 - I1)(I3 - I2) / (I1 I2)) (rad/s): a perturbation of w turns
+        about the spin axis at lambda in the body frame (linearised Euler equations)."""
+        return gyroscopic_rate(PRINCIPAL_MOMENTS, [0.0, 0.0, p["spin"]])
+
+    def growth(self, integrator, p, dt) -> tuple[float, float, str]:
+        """(log amplification per step of a perturbation of w, the rate mu at which that mode
+        turns, why). The kick-drift steps are explicit Euler on the body-frame Euler equations
+        (the drift turns the body about the new w, which leaves it unchanged): ln(1 +
+        (lambda h)^2) / 2 at mu = lambda. The RK and implicit steps act on the world-frame w,
+        where a body-frame perturbation turning at lambda turns at lambda and |w| + lambda: the
+        larger log amplitude factor of the two (oscillator_rates; 0 where it damps)."""
+        lam = self.gyroscopic_rate(p)
+        if method_name(integrator) in KICK_METHODS:
+            return euler_amplitude_rate(lam * dt), lam, (
+                f"explicit Euler on the body-frame gyroscopic oscillation, lambda = {lam:.3g} "
+                "rad/s: ln(1 + (lambda h)^2) / 2 a step")
+        candidates = []
+        for mu in (lam, p["spin"] + lam):
+            log_amp = oscillator_rates(integrator, mu * dt)[1]
+            candidates.append((np.inf if not np.isfinite(log_amp) else max(log_amp, 0.0), mu))
+        log_amp, mu = max(candidates)
+        return log_amp, mu, (
+            f"the method's log amplitude factor on the gyroscopic oscillation at lambda = "
+            f"{lam:.3g} and at |w| + lambda = {p['spin'] + lam:.3g} rad/s (the world frame "
+            "the steps act in), the larger, 0 where it damps")
+
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        omega_t, y = p["spin"] * p["duration"], p["spin"] * dt
+        """The exact discrete angle error n |step angle - h |w|| (the named method's turning
+        at constant w in the formulation's chart, `_bounds.chart_step_angle`) + round-off:
+        n eps S for the orientation, plus the roundings of w grown by the method's
+        amplification of the gyroscopic oscillation (`seeded_growth`)."""
+        steps = int(round(p["duration"] / dt))
         roundoff, roundoff_reason = self._roundoff(p, dt)
         rtol = adaptive_rtol(integrator)
         if rtol is not None:
-            return 10 * rtol * omega_t + roundoff, (
+            return 10 * rtol * p["spin"] * p["duration"] + roundoff, (
                 "adaptive: local error held to rtol per step, the angle error after w t "
                 "radians grows at most like w t rtol (factor 10 for the controller's safety "
                 "margin)" + roundoff_reason)
-        tol = order_tolerance(1.0, omega_t, y, order, symplectic=False)
-        reason = (f"order {order}: expm1(w t (h w)^p) rad (see order_tolerance): at constant w "
-                  "the orientation ODE is linear, a rotation at rate |w|, and an order-p step "
-                  "errs in its phase by at most (h |w|)^(p+1)/2 (the one-stage steps by "
-                  "(h|w|)^3/12 to (h|w|)^3/3: discrete_angle_error); w itself is exact "
-                  "(w x I w = 0)")
-        return tol + roundoff, reason + roundoff_reason
+        formulation = engine_variant or "quat_exp"
+        y = p["spin"] * dt
+        exact = steps * abs(chart_step_angle(integrator, formulation, y) - y)
+        log_amp, mu, growth_reason = self.growth(integrator, p, dt)
+        seeded = seeded_growth(log_amp, mu * dt, steps)
+        grown = EPS * p["spin"] / self.gyroscopic_rate(p) * seeded
+        reason = (f"order {order}, {formulation}: the exact discrete angle error n |step "
+                  f"angle - y| = {exact:.3g} rad (y = h |w| = {y:.3g}, n = {steps}; w x I w = "
+                  "0 keeps w exact, so each step turns by the method's angle in the chart: "
+                  "_bounds.chart_step_angle, from its tableau or definition); plus the "
+                  "roundings of w (eps |w| each) grown by rho = exp(alpha) a step, alpha = "
+                  f"{log_amp:.3g}: {growth_reason}; the mode turns by mu h = {mu * dt:.3g} a "
+                  "step against a rounding's fixed direction, so they sum to at most (rho^n + "
+                  f"1) / |rho e^(i mu h) - 1| = {seeded:.3g} roundings, and tilt the spin by "
+                  f"|dw| / lambda: {grown:.3g} rad")
+        return exact + roundoff + grown, reason + roundoff_reason
+
+
+def seeded_growth(log_amp, phase, steps) -> float:
+    """(rho^n + 1) / |rho e^(i phase) - 1|, rho = exp(log_amp): a bound on |sum_k rho^(n-k)
+    e^(i k phase)|, the sum of n unit seeds of one fixed direction added to a mode that grows
+    by rho and turns by `phase` a step (inf when rho^n overflows)."""
+    if not np.isfinite(log_amp) or steps * log_amp > 700.0:
+        return np.inf
+    rho = np.exp(log_amp)
+    return float((rho ** steps + 1.0) / abs(rho * np.exp(1j * phase) - 1.0))
 
 
 CASE = SpinDrift()
