@@ -8,7 +8,9 @@ Refused (listed with the reason, never compared):
   - the two rows ran the case with different parameters (`params`).
 Regression (B worse than A), judged only where the row is `ok` in A:
   1. status: `ok` in A, anything else in B (diverged, failed, timeout, unsupported, unavailable);
-  2. tolerance: within_tol True in A, False in B;
+  2. verdicts: consistent with its method in A, inconsistent in B; or reaching the case's
+     target in A, not in B (runs stored before the two verdicts read their within_tol as the
+     consistency verdict: refsim.verdicts.upgrade_table);
   3. error: err_B > error_threshold x err_A (default 1.10), unless err_B is at or below the
      round-off floor: the larger of 1e-3 x the row's tolerance (the smaller of A's and B's)
      and the case's error floor (`Case.error_floor`, the round-off level of the order fits).
@@ -22,7 +24,7 @@ Regression (B worse than A), judged only where the row is `ok` in A:
      A stored definition may name another time column in microseconds (`time_column`, e.g.
      a bench figure timing a whole computation whose step count is the method's own).
 A row not `ok` in A is never a regression; `ok` in B it is "improved" (fixed). A row `ok` in
-both is "improved" too when it came back within tolerance, or when err_A (above the floor)
+both is "improved" too when it became consistent or came to reach the target, or when err_A (above the floor)
 exceeds error_threshold x err_B; timings never make a row "improved".
 
 The error compared is the column the case's tolerance bounds (`Case.tolerance_column`: err_max
@@ -237,11 +239,16 @@ def _error_regression(err_a, err_b, threshold, floor) -> list[str]:
 
 
 def _tolerance_regression(ra, rb, norm) -> list[str]:
-    """Rule 2: within the case's tolerance in A, outside it in B."""
-    if _truthy(ra.get("within_tol")) and not _truthy(rb.get("within_tol")):
-        return [f"now outside tolerance ({norm} {_number(rb, norm):.3g} > tolerance "
-                f"{_number(rb, 'tolerance'):.3g})"]
-    return []
+    """Rule 2: consistent with its method in A, inconsistent in B; or reaching the target in
+    A and not in B."""
+    out = []
+    if ra.get("consistency") == "consistent" and rb.get("consistency") == "inconsistent":
+        out.append(f"now inconsistent with its method ({norm} {_number(rb, norm):.3g} > bound "
+                   f"{_number(rb, 'tolerance'):.3g}; {rb.get('consistency_reason', '')})")
+    if _truthy(ra.get("reaches_target")) and not _truthy(rb.get("reaches_target")) \
+            and "reaches_target" in rb:
+        out.append(f"no longer reaches the target ({norm} {_number(rb, norm):.3g})")
+    return out
 
 
 def _time_regression(us_a, us_b, threshold, column="us_per_step") -> list[str]:
@@ -255,8 +262,11 @@ def _time_regression(us_a, us_b, threshold, column="us_per_step") -> list[str]:
 
 
 def _improved(err_a, err_b, threshold, floor, ra, rb) -> str:
-    if not _truthy(ra.get("within_tol")) and _truthy(rb.get("within_tol")):
-        return "now within tolerance"
+    if ra.get("consistency") == "inconsistent" and rb.get("consistency") == "consistent":
+        return "now consistent with its method"
+    if "reaches_target" in ra and not _truthy(ra.get("reaches_target")) \
+            and _truthy(rb.get("reaches_target")):
+        return "now reaches the target"
     if math.isfinite(err_a) and math.isfinite(err_b) and err_a > floor \
             and err_b * threshold < err_a:
         return f"error x{_ratio(err_b, err_a):.3g}"

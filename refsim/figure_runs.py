@@ -5,7 +5,8 @@ cases.json, so `refsim report` and `refsim compare` read it unchanged. Every fig
 results row keyed on the store's KEY; every (case, variant, params) it uses has a definition
 written by the command itself (`definition`), honest about what the row holds: no convergence
 order, no figures, and where nothing bounds the figure, no tolerance (tolerance nan,
-within_tol False, tol_reason saying why), so that compare judges status and time only.
+consistency "", reaches_target False, tol_reason saying why), so that compare judges status
+and time only.
 
 A bench's figure (what `main(quick)` of a `refsim.benches` entry returns, a list of dicts):
   required: "figure" (its name, the row's variant), "value" and "units" (the figure itself),
@@ -45,7 +46,8 @@ def base_row(run_id: str, case: str, variant: str, engine: str, integrator: str,
            "engine_variant": engine_variant, "integrator": integrator, "dt": dt,
            "params": params, "engine_version": "", "steps": 0, "status": "ok", "reason": ""}
     row.update({col: NAN for col in NUMBER_COLUMNS})
-    row.update(repeats=0, settings="{}", within_tol=False, tol_reason="", timing="")
+    row.update(repeats=0, settings="{}", consistency="", consistency_reason="",
+               reaches_target=False, tol_reason="", timing="")
     return row
 
 

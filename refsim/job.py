@@ -13,17 +13,18 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from refsim.engine import IntegratorInfo, jsonable
-from refsim.integrators import get_integrator
+from refsim.integrators import method_info
 from refsim.metrics import energy_drift, error_norms
 from refsim.registry import get_case, get_engine
+from refsim.verdicts import NO_REFERENCE, judge, reaches
 
 STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
-# Accuracy passes longer than LONG_RUN_S give the timing sample themselves; a timing pass stops
-# repeating once its runs have taken BUDGET_S. At 0.5 s both, timing took 207 s of the default
-# run's 780 s of work (2,107 rows); at 0.2 s, 100 s (computed from that run's own rows). What
-# a repeat buys, the min of 3 instead of 2 for a 0.07-0.2 s row, is within the spread of a
-# shared 2-core machine; a per-call overhead inside a 0.2 s accuracy pass is <= 400 calls of
-# ~30 us (a taichi launch): 6 % at most, for taichi rows only (see _run_job).
+# The timing pass steps fresh models with nothing observed, repeating until its runs have taken
+# BUDGET_S. A run whose accuracy pass spent over LONG_RUN_S inside step calls is timed over
+# its first N' steps only, N' chosen so that one timed run takes about LONG_RUN_S, and scaled
+# to the whole run (`timed_steps` says N'); the accuracy pass never gives the timing sample
+# (its step calls are one per observation: a taichi kernel launch each, 0.4 ms against
+# 0.9 us per step inside one launch, measured on newtons_cradle).
 LONG_RUN_S = 0.2
 BUDGET_S = 0.2
 
@@ -52,14 +53,16 @@ class Job:
 def _blank_row(job: Job, run_id: str) -> dict:
     row = {"run_id": run_id, **asdict(job), "params": json.dumps(dict(job.params)),
            "engine_version": "", "steps": 0,
-           "t_end": float("nan"), "status": "", "reason": "", "nominal_order": float("nan")}
-    for col in ("err_max", "err_final", "err_rms", "energy_drift", "constraint_drift",
+           "t_end": float("nan"), "status": "", "reason": "", "nominal_order": float("nan"),
+           "declared_order": float("nan")}
+    for col in ("err_max", "err_final", "err_rms", "err_initial", "energy_drift",
+                "constraint_drift", "target_error",
                 "momentum_drift", "penetration_max", "conservation_err",
                 "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step",
                 "tolerance", "diverged_t", "wall_s", "engine_s"):
         row[col] = float("nan")
-    row.update(repeats=0, settings="{}", within_tol=False, tol_capped=False, unresolved=False,
-               tol_reason="", samples=0, timing="")
+    row.update(repeats=0, timed_steps=0, settings="{}", reaches_target=False, consistency="",
+               consistency_reason="", tol_reason="", samples=0, timing="")
     return row
 
 
@@ -115,46 +118,44 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
     sim, setup_s = clock.call(_build, engine, scene, job)
     row.update(setup_s=setup_s, compile_s=sim.compile_s,
                settings=json.dumps(jsonable(sim.settings())),
-               nominal_order=_nominal_order(sim, job))
-    obs, diverged, stepping_s = _accuracy_pass(case, p, sim, steps, stride, clock)
+               nominal_order=_nominal_order(job), declared_order=_declared_order(sim))
+    obs, stopped, stepping_s = _accuracy_pass(case, p, sim, steps, stride, clock)
     clock.call(sim.close)
     stacked = {k: np.array([o[k] for o in obs]) for k in obs[0]}
-    if diverged:
-        row.update(status="diverged", reason=diverged[0], diverged_t=diverged[1],
-                   samples=len(obs))
+    if stopped:
+        status, why, t_stop = stopped
+        row.update(status=status, reason=why, diverged_t=t_stop, samples=len(obs))
         return
     row.update(_accuracy_metrics(case, p, stacked), status="ok", samples=len(obs))
     if keep_trajectory:
         row["trajectory"] = stacked
     if math.isclose(job.dt, case.reference_dt(p), rel_tol=1e-9):
         row["series"] = series(case, p, stacked)
-    row.update(_verdict(case, p, job, row))
-    if repeats > 0 and stepping_s > max(budget_s, LONG_RUN_S):
-        # a long run: its step() calls in the accuracy pass (observation outside them) are
-        # the one timing sample; repeating it would only double the wall time. Its <= ~400
-        # calls cost ~30 us each at most in per-call overhead (a taichi launch, ENGINE_NOTES):
-        # <= 12 ms, <= 6 % of a run this long
-        row.update(step_s=stepping_s, step_s_median=stepping_s, repeats=1,
-                   us_per_step=stepping_s / steps * 1e6, timing="accuracy-pass step calls")
-    elif repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
-        row.update(clock.call(_timing_pass, engine, scene, job, steps, repeats, budget_s),
-                   timing="fresh models, min of repeats")
+    row.update(_verdicts(case, p, job, row))
+    if repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
+        timed = steps if stepping_s <= LONG_RUN_S else max(
+            1, min(steps, int(steps * LONG_RUN_S / stepping_s)))
+        row.update(clock.call(_timing_pass, engine, scene, job, steps, timed, repeats,
+                              budget_s))
 
 
-def _verdict(case, p, job, row) -> dict:
-    """tolerance, tol_reason, within_tol and unresolved of an ok row. A derived bound at or
-    above the motion itself would accept any answer (a spring damped out entirely errs by less
-    than its amplitude): such a row is `unresolved` (this dt does not resolve the case with
-    this method), never within tolerance; its tolerance column keeps the motion scale."""
-    tol, why = case.tolerance(p, job.integrator, row["nominal_order"], job.dt,
-                              job.engine_variant, json.loads(row["settings"]))
-    scale = case.motion_scale(p)
-    if tol >= scale:
-        return {"tolerance": scale, "tol_capped": True, "unresolved": True, "within_tol": False,
-                "tol_reason": f"{why}; that bound ({tol:.3g}) is not below the motion itself "
-                              f"({scale:.3g}): unresolved, no accuracy verdict at this dt"}
-    return {"tolerance": tol, "tol_reason": why, "tol_capped": False, "unresolved": False,
-            "within_tol": bool(row[case.tolerance_column(p)] <= tol)}
+def _verdicts(case, p, job, row) -> dict:
+    """reaches_target (the case's target) and consistency with the NAMED method (its bound from
+    the case for that method, whatever the engine declares; see refsim.verdicts)."""
+    column = case.tolerance_column(p)
+    target = case.target_error(p)
+    out = {"target_error": target, "reaches_target": reaches(row[column], target)}
+    method = method_info(job.integrator)
+    if method is None:
+        return {**out, "tolerance": float("nan"), "consistency": NO_REFERENCE,
+                "tol_reason": f"{job.integrator!r} is {job.engine}'s own scheme, not a method "
+                              "refsim defines: no method bound, only the target question",
+                "consistency_reason": ""}
+    settings = {**json.loads(row["settings"]), "integrator": method}
+    bound, why = case.tolerance(p, job.integrator, method["order"], job.dt,
+                                job.engine_variant, settings)
+    return {**out, **judge(row[column], bound, why, case.motion_scale(p), row["err_initial"],
+                           case.error_floor(p))}
 
 
 def _build(engine, scene, job):
@@ -163,33 +164,38 @@ def _build(engine, scene, job):
     return sim, time.perf_counter() - t0 - sim.compile_s
 
 
-def _nominal_order(sim, job):
+def _nominal_order(job):
+    """The order of the method the integrator names (NaN for an engine's own scheme)."""
+    method = method_info(job.integrator)
+    return float("nan") if method is None else method["order"]
+
+
+def _declared_order(sim):
+    """The order the engine declares for its stepper in its settings (NaN if it declares none):
+    shown beside the verdict, never used for it."""
     described = IntegratorInfo.of(sim.settings())
-    if described is not None:
-        return float(described.order)
-    try:
-        return float(get_integrator(job.integrator).order)
-    except ValueError:
-        return float("nan")
+    return float("nan") if described is None else float(described.order)
 
 
 ENERGY_BATCH = 16  # observations whose energies the divergence check evaluates together
 
 
 def _accuracy_pass(case, p, sim, steps, stride, clock):
-    """Observe at t = 0 and every `stride` steps; stop at the first sign of divergence.
-    Returns the observations, the divergence (reason, t) or None, and the time spent inside
-    `Sim.step` calls only.
+    """Observe at t = 0 and every `stride` steps; stop at the first sign of a breakdown.
+    Returns the observations, (status, reason, t) of the stop or None, and the time spent
+    inside `Sim.step` calls only.
 
-    The engine's failure and a non-finite state are checked at every observation; the energy
-    criterion for ENERGY_BATCH observations at once (one vectorised `case.energy` call, not
-    one per observation: a fifth of a short row's time). The verdict is the same as checking
-    each observation in turn: the first observation that fails any criterion ends the
-    observations and names the reason; only the engine may have stepped up to ENERGY_BATCH - 1
-    observations past it."""
+    `diverged` means unbounded: a non-finite state, or an energy that has GROWN past
+    `divergence_factor` times the initial state's own energy scale (max(|E0|, the case's
+    energy scale)); a decaying or settling run never is. An engine's own failure with a
+    bounded, finite state (a solver that did not converge, a full buffer) is `failed`, named
+    by the engine's message. The state is checked at every observation, the energy for
+    ENERGY_BATCH observations at once (one vectorised `case.energy` call): the first
+    observation that fails ends the observations; only the engine may have stepped up to
+    ENERGY_BATCH - 1 observations past it."""
     obs = [clock.call(sim.observe)]
-    e_scale = case.energy_scale(p)
     e0 = _energy_at(case, p, obs[0])  # once: every later observation is compared with it
+    e_scale = None if e0 is None else max(abs(float(e0)), case.energy_scale(p))
     done, stepping, pending = 0, 0.0, 1  # obs[pending:]: energies not yet checked
     while done < steps:
         n = min(stride, steps - done)
@@ -198,17 +204,21 @@ def _accuracy_pass(case, p, sim, steps, stride, clock):
         stepping += time.perf_counter() - t0
         done += n
         obs.append(clock.call(sim.observe))
-        why = _state_failure(sim, obs[-1])
-        last = len(obs) - (1 if why else 0)  # a failed observation's energy is not asked
-        if e0 is not None and (why or done >= steps or last - pending >= ENERGY_BATCH):
-            k = _first_energy_divergence(case, p, obs, pending, last, e0, e_scale)
+        stop = _state_failure(sim, obs[-1])
+        last = len(obs) - (1 if stop and stop[0] == "diverged" else 0)
+        if e0 is not None and (stop or done >= steps or last - pending >= ENERGY_BATCH):
+            k = _first_energy_growth(case, p, obs, pending, last, e0, e_scale)
             pending = last
             if k is not None:
                 del obs[k + 1:]
-                why = f"energy beyond {case.divergence_factor:g} x the energy scale"
-        if why:
+                stop = ("diverged", f"energy grew past {case.divergence_factor:g} x the "
+                                    f"initial energy scale {e_scale:.3g}"
+                        + (f" ({sim.failure})" if sim.failure else ""))
+        if stop:
             clock.total += stepping
-            return obs, (f"{why} at t={obs[-1]['t']:.6g} s", obs[-1]["t"]), stepping
+            t_stop = float(obs[-1]["t"])
+            why = stop[1] if "t=" in stop[1] else f"{stop[1]} at t={t_stop:.6g} s"
+            return obs, (stop[0], why, t_stop), stepping
     clock.total += stepping
     return obs, None, stepping
 
@@ -239,32 +249,35 @@ def _energy_at(case, p, o):
 
 
 def _state_failure(sim, o):
-    """The engine's own failure, or a non-finite state at observation `o`; None when neither."""
-    if sim.failure:
-        return sim.failure
+    """("diverged", why) for a non-finite state, ("failed", why) for the engine's own failure
+    with a finite state (its energy is judged next), None when neither."""
     state = [name for name in o if name in ("x", "v") or name.startswith("grid.")]
     if not all(np.isfinite(o[name]).all() for name in state):
-        return "non-finite state"
+        return "diverged", "non-finite state" + (f" ({sim.failure})" if sim.failure else "")
+    if sim.failure:
+        return "failed", sim.failure
     return None
 
 
-def _first_energy_divergence(case, p, obs, start, stop, e0, e_scale):
-    """Index of the first of obs[start:stop] whose energy is past `divergence_factor` energy
-    scales from e0, or None."""
+def _first_energy_growth(case, p, obs, start, stop, e0, e_scale):
+    """Index of the first of obs[start:stop] whose energy has grown past `divergence_factor`
+    times `e_scale` above e0 (one-sided: energy lost is never divergence), or None."""
     if stop <= start:
         return None
     batch = obs[start:stop]
     with np.errstate(all="ignore"):  # a diverging state may overflow: it is judged, not run
         energy = np.asarray(case.energy(p, {k: np.asarray([o[k] for o in batch])
                                             for k in batch[0]}), float)
-        beyond = np.flatnonzero(np.abs(energy - e0) > case.divergence_factor * e_scale)
-    return None if len(beyond) == 0 else start + int(beyond[0])
+        grown = np.flatnonzero(~(energy - e0 <= case.divergence_factor * e_scale))
+    return None if len(grown) == 0 else start + int(grown[0])
 
 
 def _accuracy_metrics(case, p, stacked):
     observed = case.observables(p, stacked)
     reference = case.reference(p, stacked["t"])
-    out = error_norms(case.error(p, observed, reference))
+    err = case.error(p, observed, reference)
+    out = error_norms(err)
+    out["err_initial"] = float(np.asarray(err, float)[0])
     energy = case.energy(p, stacked)
     ref_energy = (case.reference_energy(p, stacked["t"]) if hasattr(case, "reference_energy")
                   else None)
@@ -279,20 +292,24 @@ def _accuracy_metrics(case, p, stacked):
     return out
 
 
-def _timing_pass(engine, scene, job, steps, repeats, budget_s):
-    """`repeats` fresh models each stepped N times (within a time budget, at least once),
-    nothing observed inside the timed region. The accuracy pass just ran the same code on the
-    same scene and step: it is the warm-up (compilation, caches, lazy imports)."""
+def _timing_pass(engine, scene, job, steps, timed, repeats, budget_s):
+    """`repeats` fresh models each stepped `timed` steps in one call (within a time budget,
+    at least once), nothing observed inside the timed region; a run of `steps` is scaled from
+    its first `timed` steps. The accuracy pass just ran the same code on the same scene and
+    step: it is the warm-up (compilation, caches, lazy imports)."""
     times, setups, spent = [], [], 0.0
     while len(times) < max(1, repeats) and (not times or spent < budget_s):
         sim, setup_s = _build(engine, scene, job)
         t0 = time.perf_counter()
-        sim.step(steps)
+        sim.step(timed)
         times.append(time.perf_counter() - t0)
         sim.close()
         setups.append(setup_s)
         spent += times[-1] + setup_s
     best = min(times)
-    return {"step_s": best, "step_s_median": float(np.median(times)),
-            "us_per_step": best / steps * 1e6, "repeats": len(times),
-            "setup_s": min(setups)}
+    scale = steps / timed
+    stretch = "" if timed == steps else f", first {timed} of {steps} steps, scaled"
+    return {"step_s": best * scale, "step_s_median": float(np.median(times)) * scale,
+            "us_per_step": best / timed * 1e6, "repeats": len(times), "timed_steps": timed,
+            "setup_s": min(setups),
+            "timing": f"fresh models, min of {len(times)}{stretch}"}

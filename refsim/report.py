@@ -25,7 +25,7 @@ from refsim.report_overview import overview_blocks, truthy
 from refsim.report_render import render_html, render_markdown
 from refsim.report_style import Style
 
-ORDER_SLACK = 0.3  # |measured - nominal| within this: the measured order "matches"
+from refsim.verdicts import ORDER_SLACK  # |measured - nominal| within it: "matches"
 
 
 def add_arguments(parser) -> None:
@@ -112,10 +112,10 @@ def _fmt(value, spec=".3g") -> str:
 def _header(manifest, table):
     counts = table["status"].value_counts().to_dict()
     engines = ", ".join(f"{k} {v}" for k, v in manifest.get("engines", {}).items())
-    if "unresolved" in table:
-        unresolved = int(table["unresolved"].map(truthy).sum())
-        counts["ok"] = counts.get("ok", 0) - unresolved
-        counts["unresolved (ok, capped tolerance)"] = unresolved
+    from refsim.summary import verdict_counts
+    verdicts = verdict_counts(table)
+    counts["ok"] = f"{counts.get('ok', 0)} (" + ", ".join(
+        f"{k} {v}" for k, v in verdicts.items()) + ")"
     blocks = [("h1", f"refsim report: run {manifest.get('run_id', '?')}"),
               ("p", f"Command `{manifest.get('command', '?')}`, commit "
                     f"{str(manifest.get('git_commit', '?'))[:12]}, "
@@ -206,10 +206,15 @@ def order_table(rows) -> pd.DataFrame:
         r = sub.iloc[0]
         nominal, measured = r["nominal_order"], r["order"]
         verdict = "-" if not (np.isfinite(nominal) and np.isfinite(measured)) else (
-            "matches" if abs(measured - nominal) <= ORDER_SLACK else "differs")
+            "matches" if abs(measured - nominal) <= ORDER_SLACK else
+            "below the method's" if measured < nominal else "above the method's")
+        declared = float(r.get("declared_order", np.nan))
         entry = {"engine": plots.line_label(r).rsplit(" ", 1)[0],
-                 "integrator": r["integrator"], "nominal": _fmt(nominal, "g"),
+                 "integrator": r["integrator"], "method's order": _fmt(nominal, "g"),
+                 "engine declares": _fmt(declared, "g"),
                  "measured": _fmt(measured, ".2f")}
+        if np.isfinite(float(r.get("order_dt_lo", np.nan))):
+            entry["dt range"] = f"{r['order_dt_lo']:.3g}..{r['order_dt_hi']:.3g}"
         if "order_stderr" in r:
             entry["stderr"] = _fmt(r["order_stderr"], ".2f")
         entry.update({"points": int(r["order_points"]), "verdict": verdict})
@@ -221,13 +226,17 @@ def order_table(rows) -> pd.DataFrame:
 
 
 def _row_status(r) -> str:
+    """ok with the row's two verdicts (the method's bound and the case's target), or the
+    status with its reason."""
     if r["status"] != "ok":
         return f"{r['status']}: {r['reason']}"
-    if truthy(r.get("unresolved", False)):
-        return "ok, unresolved (capped tolerance)"
-    if np.isnan(float(r.get("tolerance", np.nan))):
-        return "ok (no tolerance)"
-    return "ok" if truthy(r["within_tol"]) else "ok, above tolerance !"
+    if not str(r.get("consistency", "")) and np.isnan(float(r.get("tolerance", np.nan))):
+        return "ok (no tolerance)"  # a figure nothing bounds (refsim.figure_runs)
+    verdict = str(r.get("consistency", "")) or "no verdict"
+    if verdict == "inconsistent":
+        verdict = f"INCONSISTENT ! ({r.get('consistency_reason', '')})"
+    target = "reaches the target" if truthy(r.get("reaches_target")) else "short of the target"
+    return f"ok, {verdict}, {target}"
 
 
 def compact_table(rows, col, extra=(), orders=True) -> pd.DataFrame:

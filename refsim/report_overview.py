@@ -1,11 +1,15 @@
 """The report's first section: a scoreboard of case/variant x engine and its heatmap.
 
 Read from the store only (the results table and the run's case definitions). One cell per
-case, variant and engine: the best error any of the engine's configurations reached, whether
-one is within the case's tolerance, the cheapest configuration reaching the case's target
-error (integrator, dt, run time), or why nothing ran (`unsupported` with its reason). Rows
-carrying `unresolved` (a tolerance capped at the motion scale: never within tolerance) are
-counted apart.
+case, variant and engine answers the two questions apart:
+- the target: the cheapest configuration (integrator, dt, run time) whose error reaches the
+  case's target ("reaches the target"), or "does not reach the target" with the best error
+  and where it was reached; why nothing ran otherwise (`unsupported` with its reason);
+- the method: how many of the engine's rows are consistent with the method they name,
+  inconsistent, unresolved (the method's bound not below the motion at that dt) or without a
+  method reference (the engine's own scheme).
+The heatmap's colour and word both come from the target question; the consistency counts
+are the cell's second line.
 """
 from __future__ import annotations
 
@@ -17,7 +21,8 @@ import pandas as pd
 
 from refsim import report_style as rs
 
-VERDICTS = ("pass", "fail", "unresolved", "unsupported", "not run")
+VERDICTS = ("reaches the target", "does not reach the target", "unsupported", "not run")
+TARGET_WORDS = {"reaches the target": "reaches", "does not reach the target": "SHORT"}
 TRUE = (True, "True", "true", 1, "1")
 
 
@@ -25,21 +30,31 @@ def truthy(value) -> bool:
     return value in TRUE or (isinstance(value, (bool, np.bool_)) and bool(value))
 
 
-def _unresolved(rows: pd.DataFrame) -> pd.Series:
-    if "unresolved" not in rows:
-        return pd.Series(False, index=rows.index)
-    return rows["unresolved"].map(truthy)
-
-
 def _config(row) -> str:
     form = f":{row['engine_variant']}" if row["engine_variant"] else ""
     return f"{row['integrator']}{form} at dt = {row['dt']:.3g} s"
 
 
+def method_counts(ok: pd.DataFrame) -> str:
+    """'12 consistent, 2 inconsistent (rk4 at dt = 0.02 s: reason), 1 unresolved'."""
+    if "consistency" not in ok:
+        return "-"
+    counts = ok["consistency"].value_counts()
+    parts = [f"{counts[v]} {v}" for v in ("consistent", "inconsistent", "unresolved",
+                                           "no method reference") if v in counts]
+    bad = ok[ok["consistency"] == "inconsistent"]
+    if len(bad):
+        first = bad.iloc[0]
+        parts[[p.endswith("inconsistent") for p in parts].index(True)] += (
+            f" (first: {_config(first)}: {first.get('consistency_reason', '')})")
+    return ", ".join(parts) or "-"
+
+
 def cell(rows: pd.DataFrame, col: str, target: float) -> dict:
     """The scoreboard cell of one engine's rows of one case variant."""
     ok = rows[(rows["status"] == "ok") & np.isfinite(rows[col].astype(float))]
-    out = {"verdict": "", "best": math.nan, "cheapest": "", "run_time": math.nan, "note": ""}
+    out = {"verdict": "", "best": math.nan, "best_at": "", "cheapest": "",
+           "run_time": math.nan, "method": "-", "inconsistent": 0, "note": ""}
     if ok.empty:
         statuses = rows["status"].value_counts()
         first = rows[rows["status"] == statuses.index[0]].iloc[0]
@@ -47,22 +62,18 @@ def cell(rows: pd.DataFrame, col: str, target: float) -> dict:
         note = f"{first['status']}: {first['reason']}" if verdict == "not run" else \
             str(first["reason"])
         return {**out, "verdict": verdict, "note": note}
-    unresolved = _unresolved(ok)
-    within = ok["within_tol"].map(truthy) & ~unresolved
-    out["best"] = float(ok[col].min())
-    if within.any():
-        out["verdict"] = "pass"
-    else:
-        out["verdict"] = "unresolved" if unresolved.any() else "fail"
-    if unresolved.any():
-        out["note"] = f"{int(unresolved.sum())} of {len(ok)} unresolved (capped tolerance)"
+    best = ok.loc[ok[col].astype(float).idxmin()]
+    out.update(best=float(best[col]), best_at=_config(best), method=method_counts(ok),
+               inconsistent=int((ok.get("consistency", pd.Series(dtype=str))
+                                 == "inconsistent").sum()))
     timed = ok[np.isfinite(ok["step_s"].astype(float))]
     good = timed[timed[col] <= target] if math.isfinite(target) else timed.iloc[:0]
     if len(good):
-        best = good.loc[good["step_s"].astype(float).idxmin()]
-        out["cheapest"], out["run_time"] = _config(best), float(best["step_s"])
-    elif math.isfinite(target):
-        out["cheapest"] = "none reaches the target"
+        cheapest = good.loc[good["step_s"].astype(float).idxmin()]
+        out.update(verdict="reaches the target", cheapest=_config(cheapest),
+                   run_time=float(cheapest["step_s"]))
+    else:
+        out["verdict"] = "does not reach the target"
     return out
 
 
@@ -87,30 +98,46 @@ def _error_text(value: float, floor: float) -> str:
 
 
 def scoreboard_table(board: pd.DataFrame) -> pd.DataFrame:
-    """The scoreboard as the report prints it."""
+    """The scoreboard as the report prints it: the target question, then the method one."""
     return pd.DataFrame({
         "case / variant": board["case"], "engine": board["engine"],
-        "verdict": board["verdict"],
-        "best error": [f"{_error_text(b, f)} {c}" if math.isfinite(b) else "-"
-                       for b, f, c in zip(board["best"], board["floor"], board["column"])],
-        "target": [f"{t:.2g}" if math.isfinite(t) else "-" for t in board["target"]],
+        "target": [f"{v} ({t:.2g})" if math.isfinite(t) else v
+                   for v, t in zip(board["verdict"], board["target"])],
         "cheapest reaching the target": board["cheapest"].replace("", "-"),
         "run time (s)": [f"{t:.3g}" if math.isfinite(t) else "-" for t in board["run_time"]],
+        "best error (where)": [f"{_error_text(b, f)} {c} ({w})" if math.isfinite(b) else "-"
+                               for b, f, c, w in zip(board["best"], board["floor"],
+                                                     board["column"], board["best_at"])],
+        "consistent with the method named": board["method"],
         "note": board["note"].replace("", "-")})
+
+
+LEGEND = ("Each cell answers two questions. *Target*: does any configuration of the engine "
+          "reach the case's declared accuracy target (its \"good enough\", in the error "
+          "column named)? The cheapest that does is named, with its run time; otherwise the "
+          "best error and where. *Method*: does each row behave as the method it names (rk4 "
+          "as RK4) at its dt: its error within the bound a correct implementation of that "
+          "method must meet there (the exact discrete solution where the case has one), the "
+          "state at t = 0 exact, the fitted order not below the method's? `consistent`, "
+          "`inconsistent` (with the first reason), `unresolved` (the method's bound is not "
+          "below the motion at that dt: no verdict), `no method reference` (the engine's "
+          "own scheme: only the target question is answered). In the heatmap the colour is "
+          "log10(best error / target) (green: below the target) and the word the target "
+          "answer; the second line counts the inconsistent rows.")
 
 
 def counts_text(board: pd.DataFrame) -> str:
     counts = board["verdict"].value_counts()
     parts = [f"{counts[v]} {v}" for v in VERDICTS if v in counts]
-    return (f"Scoreboard: {len(board)} case x engine cells: " + ", ".join(parts) + ". A cell "
-            "passes when one of the engine's configurations is within the case's tolerance; "
-            "`unresolved` cells have only capped tolerances (an error the size of the motion "
-            "would pass them), never counted as within tolerance.")
+    flagged = int((board["inconsistent"] > 0).sum())
+    return (f"Scoreboard: {len(board)} case x engine cells: " + ", ".join(parts) +
+            f"; {flagged} cells have rows inconsistent with the method they name. " + LEGEND)
 
 
 def heatmap(board: pd.DataFrame, path: Path, title: str, style=None):
     """Case/variant (rows) x engine (columns): colour log10(best error / target), each cell
-    annotated with its verdict; cells that did not run grey."""
+    annotated with its target answer and its count of inconsistent rows; cells that did not
+    run grey."""
     plt = rs._pyplot()
     cases = list(dict.fromkeys(board["case"]))
     engines = list(dict.fromkeys(board["engine"]))
@@ -139,8 +166,10 @@ def _annotation(r) -> str:
     short = {"unsupported": "unsupported", "not run": "failed"}
     if r.verdict in short:
         return short[r.verdict]
-    mark = {"pass": "pass", "fail": "FAIL", "unresolved": "unresolved"}[r.verdict]
-    return f"{mark}\n{r.best:.0e}" if r.best > r.floor else f"{mark}\nround-off"
+    mark = TARGET_WORDS[r.verdict]
+    best = f"{r.best:.0e}" if r.best > r.floor else "round-off"
+    method = f"\n{r.inconsistent} inconsistent" if r.inconsistent else ""
+    return f"{mark}\n{best}{method}"
 
 
 def overview_blocks(table, definitions, target_error, out: Path, style=None) -> list:

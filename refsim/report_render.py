@@ -42,7 +42,7 @@ color:#222}h1{font-size:1.5em}h2{border-top:1px solid #ccc;padding-top:.8em;marg
 table{border-collapse:collapse;font-size:.8em;margin:.5em 0}td,th{border:1px solid #ddd;
 padding:2px 6px;text-align:right}th{background:#f3f3f3}td:nth-child(-n+2){text-align:left}
 img{max-width:100%;display:block;margin:.4em 0}nav a{margin-right:1em}code{background:#f5f5f5}
-td.v-pass{background:#d9f2d9}td.v-fail{background:#f8d0d0}td.v-unresolved{background:#fde9b8}
+td.v-reaches,td.v-matches{background:#d9f2d9}td.v-does,td.v-below{background:#f8d0d0}td.v-unresolved{background:#fde9b8}
 td.v-unsupported,td.v-not{background:#e6e6e6}"""
 
 
@@ -56,11 +56,13 @@ def _inline(text: str) -> str:
 
 
 def _table_html(df: pd.DataFrame) -> str:
-    """A table; a `verdict` column's cells carry a class (v-pass, v-fail, ...) for colour."""
+    """A table; the cells of a `verdict` or `target` column carry a class named by their
+    first word (v-reaches, v-does, v-matches, v-below, ...) for colour."""
     page = df.to_html(index=False, border=0, escape=True)
-    if "verdict" not in df:
+    column = next((c for c in ("verdict", "target") if c in df), None)
+    if column is None:
         return page
-    for verdict in df["verdict"].unique():
+    for verdict in df[column].unique():
         css = "v-" + str(verdict).split(" ")[0]
         page = page.replace(f"<td>{html.escape(str(verdict))}</td>",
                             f'<td class="{css}">{html.escape(str(verdict))}</td>')

@@ -21,6 +21,7 @@ from refsim.job import (BUDGET_S, LONG_RUN_S, STATUSES, Job, run_job,  # noqa: F
                         series)
 from refsim.case import adaptive_rtol
 from refsim.metrics import OrderFit, fit_order
+from refsim.verdicts import CONSISTENT, INCONSISTENT, order_reason
 
 # ---------------------------------------------------------------------------------------------
 # Matrix expansion
@@ -211,22 +212,37 @@ GROUP = ["case", "variant", "engine", "engine_variant", "integrator"]
 def with_orders(table: pd.DataFrame) -> pd.DataFrame:
     """Adds the measured convergence order of each case x engine x integrator over all its
     ok rows (timed dts and the case's accuracy-only `order_dts`): `order` with its standard
-    error `order_stderr` and `order_points`, or NaN with `order_note` saying why (at floor,
-    pre-asymptotic, adaptive step, single dt; see metrics.fit_order)."""
+    error `order_stderr`, `order_points` and the dt range `order_dt_lo`..`order_dt_hi`, or NaN
+    with `order_note` saying why (at floor, pre-asymptotic, adaptive step, single dt; see
+    metrics.fit_order). A fitted order more than ORDER_SLACK below the named method's makes
+    the group's consistent rows inconsistent (refsim.verdicts.order_reason)."""
     table = table.copy()
-    table["order"] = np.nan
-    table["order_stderr"] = np.nan
-    table["order_points"] = 0
-    table["order_note"] = ""
+    for col, blank in (("order", np.nan), ("order_stderr", np.nan), ("order_points", 0),
+                       ("order_dt_lo", np.nan), ("order_dt_hi", np.nan), ("order_note", "")):
+        table[col] = blank
     for key, group in table[table["status"] == "ok"].groupby(GROUP + ["params"], dropna=False):
         case = get_case(key[0])
         if not case.order_meaningful:
             continue
         p = case.variant_params(key[1], json.loads(key[-1]))
         fit = _group_order(case, p, key[4], group)
-        table.loc[group.index, ["order", "order_stderr", "order_points", "order_note"]] = \
-            [fit.order, fit.stderr, fit.points, fit.note]
+        table.loc[group.index, ["order", "order_stderr", "order_points", "order_dt_lo",
+                                "order_dt_hi", "order_note"]] = \
+            [fit.order, fit.stderr, fit.points, fit.dt_lo, fit.dt_hi, fit.note]
+        _order_verdict(table, group, fit)
     return table
+
+
+def _order_verdict(table, group, fit) -> None:
+    if "consistency" not in table:
+        return
+    why = order_reason(fit.order, fit.stderr, fit.dt_lo, fit.dt_hi,
+                       float(group["nominal_order"].max()))
+    if why is None:
+        return
+    hit = group.index[group["consistency"] == CONSISTENT]
+    table.loc[hit, "consistency"] = INCONSISTENT
+    table.loc[hit, "consistency_reason"] = why
 
 
 ADAPTIVE_NOTE = "adaptive step: dt is the output interval, no order in it"
@@ -239,4 +255,4 @@ def _group_order(case, p, integrator, group) -> OrderFit:
     if group["dt"].nunique() < 2:
         return OrderFit(note=SINGLE_DT_NOTE)
     return fit_order(group["dt"], group["err_max"], case.error_floor(p),
-                     case.error_ceiling(p), group["nominal_order"].max())
+                     case.error_ceiling(p))

@@ -169,7 +169,8 @@ def row_key(row: dict) -> tuple:
 # results columns that hold text (an empty string is a value there, not a missing number)
 TEXT_COLUMNS = ("run_id", "case", "variant", "engine", "engine_variant", "integrator",
                 "params", "engine_version", "status", "reason", "settings", "tol_reason",
-                "timing", "within_tol", "tol_capped", "unresolved", "host")
+                "timing", "within_tol", "tol_capped", "unresolved", "host", "consistency",
+                "consistency_reason", "reaches_target", "order_note")
 
 
 def load_results(run_dir: Path) -> pd.DataFrame:
@@ -186,7 +187,8 @@ def load_results(run_dir: Path) -> pd.DataFrame:
     for col in ("variant", "engine_variant", "reason"):
         if col in table:
             table[col] = table[col].astype(str)
-    return table
+    from refsim.verdicts import upgrade_table
+    return upgrade_table(table)  # a run stored before the two verdicts reads with them
 
 
 def environment(engine_versions: dict, case_hashes: dict, threads: int) -> dict:

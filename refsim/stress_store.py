@@ -6,7 +6,9 @@ Rows (case: the probe case's name, engine_variant "", KEY unique):
   y, not a step): err_max = |measured - theory| in y = omega dt (0 when both are unbounded,
   inf when one is, nan where no theory is known); tolerance = the agreement bound `agrees`
   uses, resolution + bisection tolerance x max(1, theory) (0 for an unbounded theory: both must
-  be unbounded; nan where no theory is known), tol_reason saying so; within_tol = agrees;
+  be unbounded; nan where no theory is known), tol_reason saying so; consistency: the
+  measured limit agrees with the method's theory (consistent) or not (inconsistent), "no
+  method reference" where no theory is known;
   status ok, or failed with the search's error. Extra columns: measured, theory, finite_time,
   resolution, as, evals, batched, search_s, note.
 - variant "k=1e4" (one per stiffness of the sweep, `sweep_variant`), one per (engine,
@@ -95,7 +97,10 @@ def limit_row(limit: dict, opts, case: str, run_id: str, versions: dict) -> dict
     row.update(engine_version=versions.get(limit["engine"], ""),
                status="failed" if failed else "ok", reason=note[7:] if failed else "",
                err_max=limit_error(measured, th), tolerance=tolerance, tol_reason=why,
-               within_tol=str(limit.get("agrees")) == "True", measured=measured, theory=th,
+               consistency=("" if failed else "no method reference" if math.isnan(th) else
+                            "consistent" if str(limit.get("agrees")) == "True"
+                            else "inconsistent"),
+               measured=measured, theory=th,
                finite_time=float(limit["finite_time"]),
                resolution=float(limit["resolution"]), note=note,
                search_s=float(limit.get("seconds", math.nan)),

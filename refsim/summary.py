@@ -35,56 +35,42 @@ def _fmt(value, spec):
         else format(value, spec)
 
 
-def reference_rows(table: pd.DataFrame) -> pd.DataFrame:
-    """One row per case x variant x engine x integrator: the one at the case's reference dt
-    (or the finest dt run when the reference dt was not in the sweep)."""
-    from refsim.registry import get_case
-    import json
-    picked = []
-    for key, group in table.groupby(["case", "variant", "params"], dropna=False, sort=False):
-        case = get_case(key[0])
-        ref_dt = case.reference_dt(case.variant_params(key[1], json.loads(key[2])))
-        for _, sub in group.groupby(["engine", "engine_variant", "integrator"], sort=False):
-            dts = sub["dt"].to_numpy(float)
-            if np.all(np.isnan(dts)):
-                picked.append(sub.index[0])
-                continue
-            picked.append(sub.index[int(np.nanargmin(np.abs(np.log(dts / ref_dt))))])
-    return table.loc[picked]
-
-
 def _truthy(value) -> bool:
     return value in (True, "True")
 
 
+FLAGS = {"consistent": "", "inconsistent": "!", "unresolved": "?", "no method reference": "~"}
+
+
 def _cell(r) -> str:
-    """err_max, energy drift and us/step of one row, or its status when not ok. The flag: '?'
-    unresolved (the derived bound is not below the motion: no accuracy verdict), '!' above
-    the tolerance."""
+    """err_max, energy drift and us/step of one row, or its status when not ok. The flags:
+    '!' inconsistent with its method, '?' unresolved (the method's bound is not below the
+    motion: no verdict), '~' no method reference (an engine's own scheme); '*' the error
+    reaches the case's target."""
     if r["status"] != "ok":
         return f"{r['status']:^26s}"
-    flag = "?" if _truthy(r.get("unresolved")) else "" if _truthy(r["within_tol"]) else "!"
-    return (f"{_fmt(r['err_max'], '8.1e')}{flag:1s} {_fmt(r['energy_drift'], '7.1e')} "
+    flag = FLAGS.get(str(r.get("consistency", "")), "")
+    flag += "*" if _truthy(r.get("reaches_target")) else ""
+    return (f"{_fmt(r['err_max'], '8.1e')}{flag:2s}{_fmt(r['energy_drift'], '7.1e')} "
             f"{_fmt(r['us_per_step'], '8.3g')}")
 
 
 def verdict_counts(table: pd.DataFrame) -> dict:
-    """The ok rows split by verdict: within tolerance, above it, unresolved (counted apart:
-    an unresolved row is never within tolerance)."""
-    ok = table[table["status"] == "ok"]
-    unresolved = (ok["unresolved"].map(_truthy) if "unresolved" in ok
-                  else pd.Series(False, index=ok.index))
-    within = ok["within_tol"].map(_truthy) & ~unresolved
-    return {"within tolerance": int(within.sum()),
-            "above tolerance": int((~within & ~unresolved).sum()),
-            "unresolved": int(unresolved.sum())}
+    """The ok rows by their consistency verdict, and how many reach the case's target."""
+    from refsim.verdicts import CONSISTENCY, upgrade_table
+    ok = upgrade_table(table)
+    ok = ok[ok["status"] == "ok"]
+    counts = {name: int((ok["consistency"] == name).sum()) for name in CONSISTENCY}
+    reach = ok["reaches_target"].map(_truthy) if "reaches_target" in ok else None
+    counts["reach the target"] = int(reach.sum()) if reach is not None else 0
+    return counts
 
 
 def print_summary(table: pd.DataFrame, stream=None) -> None:
-    """Per case and variant: every engine and integrator side by side at each dt (err_max,
-    energy drift, us/step; '!' marks an error above the case tolerance) with the measured
-    convergence order; rows that did not run show their status and reason once. The last line
-    counts the rows by status, the ok ones by verdict ('?' unresolved, counted apart).
+    """Per case and variant: every engine and integrator side by side at each dt (err_max with
+    its flags (see _cell), energy drift, us/step) with the measured convergence order; rows
+    that did not run show their status and reason once. The last line counts the rows by
+    status, the ok ones by consistency verdict and by reaching the target.
     `stream` defaults to sys.stdout at call time (see progress_printer)."""
     stream = sys.stdout if stream is None else stream
     for (case, variant), group in table.groupby(["case", "variant"], sort=False):
@@ -109,6 +95,9 @@ def print_summary(table: pd.DataFrame, stream=None) -> None:
             print(note, file=stream)
     counts = table["status"].value_counts().to_dict()
     verdicts = ", ".join(f"{k} {v}" for k, v in verdict_counts(table).items())
-    print(f"\n{len(table)} rows: " + ", ".join(
+    print("\nflags after err_max: ! inconsistent with its method, ? unresolved at that dt, "
+          "~ no method reference (the engine's own scheme), * reaches the case's target",
+          file=stream)
+    print(f"{len(table)} rows: " + ", ".join(
         f"{k} {v}" + (f" ({verdicts})" if k == "ok" else "") for k, v in counts.items()),
         file=stream)

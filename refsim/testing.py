@@ -1,10 +1,11 @@
-"""Tolerance checks for pytest: run a case on an engine and assert what the case promises.
+"""Checks for pytest: run a case on an engine and assert each of the two verdicts by name.
 
-One check:
-
-    from refsim.testing import assert_within_tolerance
+    from refsim.testing import assert_consistent, assert_reaches_target
     def test_my_engine_pendulum():
-        assert_within_tolerance("pendulum", "my_engine", "symplectic_euler")
+        # behaves as symplectic Euler must at the case's reference dt
+        assert_consistent("pendulum", "my_engine", "symplectic_euler")
+        # and is accurate enough at a dt of your choice (the case's target, or your own)
+        assert_reaches_target("pendulum", "my_engine", "symplectic_euler", dt=1e-4)
 
 The whole suite for one engine (one test per case x variant x engine variant x integrator it
 supports, at the case's reference dt):
@@ -45,23 +46,46 @@ def measured_order(case, variant, engine, integrator, dts, engine_variant="", **
     return order, used, errs
 
 
-def assert_within_tolerance(case, engine, integrator, variant=None, engine_variant="",
-                            dt=None, **params) -> dict:
-    """Run `case` on `engine` at the case's reference dt (or `dt`) and assert its tolerance."""
+def _run_ok(case, engine, integrator, variant, engine_variant, dt, params):
     from refsim.registry import get_case
     c = get_case(case)
     variant = variant or next(iter(c.variants))
-    __tracebackhide__ = True  # pytest shows the failing test, not this helper
     p = c.variant_params(variant, params)
     row = accuracy(case, variant, engine, integrator, dt or c.reference_dt(p), engine_variant,
                    **params)
     if row["status"] != "ok":
         raise AssertionError(f"{case}/{variant} on {engine} {integrator}: {row['status']} "
                              f"({row['reason']})")
-    if not row["within_tol"]:
-        raise AssertionError(f"{case}/{variant} on {engine} {integrator}: err_max "
-                             f"{row['err_max']:.3g} > tolerance {row['tolerance']:.3g} "
-                             f"({row['tol_reason']})")
+    return row, f"{case}/{variant} on {engine} {integrator} at dt = {row['dt']:.3g} s"
+
+
+def assert_consistent(case, engine, integrator, variant=None, engine_variant="", dt=None,
+                      **params) -> dict:
+    """Run `case` on `engine` at the case's reference dt (or `dt`) and assert that the row is
+    consistent with the method `integrator` names (refsim.verdicts): an inconsistent,
+    unresolved or method-less row fails, with the reason."""
+    __tracebackhide__ = True  # pytest shows the failing test, not this helper
+    row, label = _run_ok(case, engine, integrator, variant, engine_variant, dt, params)
+    if row["consistency"] != "consistent":
+        raise AssertionError(f"{label}: {row['consistency']}: "
+                             f"{row['consistency_reason'] or row['tol_reason']} "
+                             f"(bound: {row['tol_reason']})")
+    return row
+
+
+def assert_reaches_target(case, engine, integrator, variant=None, engine_variant="", dt=None,
+                          target=None, **params) -> dict:
+    """Run as `assert_consistent` and assert the error is within the case's accuracy target
+    (or `target`, in the case's error column's units)."""
+    __tracebackhide__ = True
+    from refsim.registry import get_case
+    row, label = _run_ok(case, engine, integrator, variant, engine_variant, dt, params)
+    column = get_case(case).tolerance_column(get_case(case).variant_params(row["variant"],
+                                                                           params))
+    goal = row["target_error"] if target is None else float(target)
+    if not row[column] <= goal:
+        raise AssertionError(f"{label}: {column} {row[column]:.3g} does not reach the target "
+                             f"{goal:.3g}")
     return row
 
 
@@ -175,11 +199,17 @@ def job_id(job: Job) -> str:
 
 
 def check(job: Job) -> dict:
-    """Assert one suite job within its case's tolerance (AssertionError naming the error, the
-    tolerance and its reason otherwise); returns the results row."""
+    """Assert one suite job: it runs to the end, and is consistent with the method it names
+    (AssertionError naming the error, the bound and its reason otherwise). A row with no
+    verdict to give (unresolved at that dt, or the engine's own scheme: no method
+    reference) is held to running to the end only. Returns the results row."""
     __tracebackhide__ = True
-    return assert_within_tolerance(job.case, job.engine, job.integrator, job.variant,
-                                   job.engine_variant, job.dt, **dict(job.params))
+    row, label = _run_ok(job.case, job.engine, job.integrator, job.variant,
+                         job.engine_variant, job.dt, dict(job.params))
+    if row["consistency"] == "inconsistent":
+        raise AssertionError(f"{label}: inconsistent with its method: "
+                             f"{row['consistency_reason']} (bound: {row['tol_reason']})")
+    return row
 
 
 def suite_params(engine, cases=None) -> list:

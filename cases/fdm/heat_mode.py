@@ -16,9 +16,10 @@ Exact discrete solutions separate the errors:
   does not hold in 2D, and the 2D default sweep's first dt, r = 1/2, diverges for every
   explicit stepper (RK4's real interval 2.785 gives r <= 0.696 / d). `refsim stress --case
   heat_mode [--variant 1d|3d]` measures the limits on noise (every mode present).
-Energy: E = 1/2 sum w u^2 (trapezoid weights) divided by its exact decay exp(2 D mu_h t): 1 for
-the semi-discrete solution, so energy_drift is the stepper's amplitude error (for the noise
-start of the stability search, the plain E, which no stable step increases).
+Energy: E = 1/2 sum w u^2 (trapezoid weights), the grid's own energy: it decays under every
+stable step, so a growing one means an unbounded run (never a decaying one divided by its
+decay). Its reference is the semi-discrete mode's E0 exp(2 D mu_h t), so energy_drift is the
+stepper's energy error in units of E0 (noise: no reference, E0 kept).
 """
 from __future__ import annotations
 
@@ -89,13 +90,19 @@ class HeatMode(ModeFieldCase):
         return {"u": np.multiply.outer(decay, g.mode())}
 
     def energy(self, p, obs):
+        """1/2 sum w u^2: the grid's own energy (it decays; a growing one is unstable)."""
         g = self.grid(p)
         u = np.asarray(obs["grid.u"], float)
-        e = 0.5 * np.sum((u * u * g.weights()).reshape(len(u), -1), axis=1)
+        return 0.5 * np.sum((u * u * g.weights()).reshape(len(u), -1), axis=1)
+
+    def reference_energy(self, p, t):
+        """The semi-discrete mode's energy E0 exp(2 D mu_h t) (None for noise: no closed
+        form), so that `energy_drift` is the stepper's energy error in units of E0."""
         if p["initial"] == "noise":
-            return e
-        return e * np.exp(-2.0 * p["diffusivity"] * g.discrete_eigenvalue() *
-                          np.asarray(obs["t"], float))
+            return None
+        return self.energy_scale(p) * np.exp(2.0 * p["diffusivity"] *
+                                             self.grid(p).discrete_eigenvalue() *
+                                             np.asarray(t, float))
 
     def energy_scale(self, p):
         return float(self.energy(p, {"grid.u": self.scene(p).grids[0].fields["u"][None],

@@ -90,3 +90,29 @@ def get_integrator(spec: str) -> Integrator:
     if name == "rk2":
         return ExplicitRK(f"rk2:{value:g}", rk2_tableau(value))
     return AdaptiveDormandPrince(rtol=value, atol=value * 1e-3)
+
+
+STATIC_SOLVE = {"steady": {"name": "steady", "order": 0.0, "symplectic": False,
+                           "implicit": True, "adaptive": False}}
+
+
+def method_info(spec: str) -> dict | None:
+    """The method an integrator spec names, as refsim defines it: {name, order, symplectic,
+    implicit, adaptive}, or None for a name refsim does not define (an engine's own scheme,
+    e.g. MuJoCo's implicitfast). Covers the second-order steppers (`get_integrator`), the
+    sparse first-order theta methods of the grid models (crank_nicolson) and the static solve
+    ("steady", order 0: one complete solve to the solver's tolerance)."""
+    from .sparse_linear import first_order_implicit
+    name = str(spec).partition(":")[0]
+    if name in STATIC_SOLVE:
+        return dict(STATIC_SOLVE[name])
+    try:
+        method = get_integrator(spec)
+    except ValueError:
+        try:
+            method = first_order_implicit(name)
+        except ValueError:
+            return None
+    return {"name": method.name, "order": float(method.order),
+            "symplectic": bool(method.symplectic), "implicit": not method.explicit,
+            "adaptive": bool(getattr(method, "adaptive", False))}

@@ -29,7 +29,8 @@ def test_slipping_accelerations_and_regime():
     assert a == pytest.approx(9.81 * (np.sin(theta) - 0.1 * np.cos(theta)), rel=1e-15)
     # I alpha = mu m g cos r
     inertia = body_inertia(p)[1, 1]
-    assert inertia * alpha == pytest.approx(0.1 * 9.81 * np.cos(theta) * p["radius"], rel=1e-14)
+    assert inertia * alpha == pytest.approx(0.1 * p["mass"] * 9.81 * np.cos(theta) * p["radius"],
+                                            rel=1e-14)
 
 
 def test_regimes_meet_at_critical_friction():
@@ -62,3 +63,18 @@ def test_scene_touches_the_incline():
     gap = (scene.rigid.position[0] - scene.wall_set.point[0]) @ scene.wall_set.normal[0]
     assert gap == pytest.approx(p["radius"], rel=1e-15)
     assert {"shapes", "contacts", "walls", "rigid"} <= scene.features()
+
+
+def test_first_order_bound_is_the_split_error_times_the_stated_safety_factor():
+    """Order < 2: SAFETY x a t h / 2 (+ round-off, no soft contact given); order >= 2: a
+    constant acceleration is exact, round-off only, so a dt-independent error (MuJoCo's
+    slipping rk4, 1.9e-5) exceeds it."""
+    from cases.rigid.rolling_disc import SAFETY
+    for variant in CASE.variants:
+        p = CASE.variant_params(variant)
+        a = accelerations(p)[0]
+        for dt in CASE.dts(p):
+            split = 0.5 * a * p["duration"] * dt
+            first = CASE.tolerance(p, "symplectic_euler", 1, dt)[0]
+            assert SAFETY * split <= first < SAFETY * split * (1 + 1e-9)
+            assert CASE.tolerance(p, "rk4", 4, dt)[0] < 1e-11

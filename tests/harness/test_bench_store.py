@@ -59,7 +59,7 @@ def test_rows_carry_the_figure_and_no_tolerance():
     rows = figure_rows(tiny_figures(), "bench:tiny", "r1", {"refsim": "0.1"})
     assert [(r["case"], r["variant"], r["engine"]) for r in rows] == [
         ("bench:tiny", "one_step", "refsim"), ("bench:tiny", "to_target", "scipy")]
-    assert all(r["status"] == "ok" and r["within_tol"] is False and math.isnan(r["tolerance"])
+    assert all(r["status"] == "ok" and r["consistency"] == "" and math.isnan(r["tolerance"])
                and r["tol_reason"] == NO_TOLERANCE and math.isnan(r["err_max"]) for r in rows)
     assert rows[0]["us_per_step"] == 10.0 and rows[0]["engine_version"] == "0.1"
     assert math.isnan(rows[1]["dt"]) and rows[1]["time_us"] == 4000.0

@@ -79,7 +79,8 @@ def test_run_writes_table_and_manifest(tmp_path):
     for col in ("run_id", "case", "engine", "engine_version", "integrator", "dt", "steps",
                 "t_end", "status", "reason", "err_max", "err_final", "err_rms", "energy_drift",
                 "setup_s", "compile_s", "step_s", "us_per_step", "repeats", "settings",
-                "order", "tolerance", "within_tol"):
+                "order", "tolerance", "consistency", "consistency_reason", "reaches_target",
+                "target_error", "declared_order", "err_initial", "timed_steps"):
         assert col in table.columns, col
     manifest = json.loads((run_dir / "manifest.json").read_text())
     assert manifest["status"] == "complete" and manifest["engines"]["refsim"]

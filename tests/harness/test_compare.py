@@ -103,7 +103,7 @@ def test_error_within_threshold_is_ok_and_halved_error_is_improved(runs):
 def test_diverged_row_is_a_regression_and_fixed_row_is_not(runs):
     a, b = runs
     edit_rows(b, {"case": "stiff_spring", "integrator": SE}, status="diverged",
-              reason="non-finite state at t=0.1 s", err_max=np.nan, within_tol=False)
+              reason="non-finite state at t=0.1 s", err_max=np.nan, consistency="")
     got, _ = verdicts(a, b)
     verdict, why = got[("stiff_spring", SE)]
     assert verdict == "regression" and "status ok -> diverged (non-finite state" in why
@@ -121,12 +121,19 @@ def test_nan_error_in_an_ok_row_is_a_regression(runs):
     assert verdict == "regression" and "-> nan" in why
 
 
-def test_leaving_the_tolerance_is_a_regression(runs):
+def test_becoming_inconsistent_or_missing_the_target_is_a_regression(runs):
     a, b = runs
-    edit_rows(b, {"case": "stiff_spring", "integrator": VV}, within_tol=False)
+    edit_rows(b, {"case": "stiff_spring", "integrator": VV}, consistency="inconsistent")
     got, _ = verdicts(a, b, judge_time=False)
     assert got[("stiff_spring", VV)][0] == "regression"
-    assert "now outside tolerance" in got[("stiff_spring", VV)][1]
+    assert "now inconsistent with its method" in got[("stiff_spring", VV)][1]
+    edit_rows(b, {"case": "stiff_spring", "integrator": VV}, consistency="consistent")
+    table = load_results(a)
+    first = table[table["reaches_target"].astype(str) == "True"].iloc[0]
+    reached = (first["case"], first["integrator"])
+    edit_rows(b, {"case": reached[0], "integrator": reached[1]}, reaches_target=False)
+    got, _ = verdicts(a, b, judge_time=False)
+    assert "no longer reaches the target" in got[reached][1]
 
 
 def test_slower_steps_are_a_regression_unless_time_is_ignored(runs):

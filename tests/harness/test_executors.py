@@ -120,7 +120,8 @@ def _assert_same_results(a, b):
     key = ["case", "variant", "engine", "engine_variant", "integrator", "dt"]
     a, b = a.sort_values(key).reset_index(drop=True), b.sort_values(key).reset_index(drop=True)
     assert a[key].equals(b[key])
-    for col in ("status", "reason", "err_max", "err_final", "energy_drift", "within_tol"):
+    for col in ("status", "reason", "err_max", "err_final", "energy_drift", "consistency",
+                "reaches_target"):
         assert a[col].equals(b[col]), col
 
 

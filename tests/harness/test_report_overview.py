@@ -10,51 +10,53 @@ from refsim import report_style as rs
 from refsim.report_overview import cell, scoreboard
 
 COLUMNS = ["engine", "engine_variant", "integrator", "dt", "status", "reason", "err_max",
-           "step_s", "within_tol"]
+           "step_s", "consistency"]
 
 
-def _rows(*rows, unresolved=None):
-    table = pd.DataFrame(rows, columns=COLUMNS)
-    if unresolved is not None:
-        table["unresolved"] = unresolved
-    return table
+def _rows(*rows):
+    return pd.DataFrame(rows, columns=COLUMNS)
 
 
-def test_cell_passes_with_the_cheapest_row_reaching_the_target():
-    rows = _rows(("e", "", "rk4", 0.01, "ok", "", 1e-6, 0.30, True),
-                 ("e", "", "euler", 0.001, "ok", "", 1e-5, 0.20, "True"),
-                 ("e", "", "euler", 0.01, "ok", "", 1e-2, 0.02, False),
-                 ("e", "", "rk4", 0.1, "diverged", "nan", np.nan, 0.01, False))
+def test_cell_reaches_the_target_with_its_cheapest_row():
+    rows = _rows(("e", "", "rk4", 0.01, "ok", "", 1e-6, 0.30, "consistent"),
+                 ("e", "", "euler", 0.001, "ok", "", 1e-5, 0.20, "consistent"),
+                 ("e", "", "euler", 0.01, "ok", "", 1e-2, 0.02, "consistent"),
+                 ("e", "", "rk4", 0.1, "diverged", "nan", np.nan, 0.01, ""))
     got = cell(rows, "err_max", 1e-4)
-    assert got["verdict"] == "pass" and got["best"] == 1e-6
+    assert got["verdict"] == "reaches the target" and got["best"] == 1e-6
     assert got["cheapest"] == "euler at dt = 0.001 s" and got["run_time"] == 0.20
+    assert got["best_at"] == "rk4 at dt = 0.01 s"
+    assert got["method"] == "3 consistent" and got["inconsistent"] == 0
 
 
-def test_cell_fails_when_no_row_is_within_tolerance_and_names_no_cheapest():
-    rows = _rows(("e", "f", "rk4", 0.01, "ok", "", 1e-2, 0.3, False))
+def test_cell_short_of_the_target_names_the_best_error_and_where():
+    rows = _rows(("e", "f", "rk4", 0.01, "ok", "", 1e-2, 0.3, "consistent"))
     got = cell(rows, "err_max", 1e-4)
-    assert (got["verdict"], got["best"], got["cheapest"]) == ("fail", 1e-2,
-                                                              "none reaches the target")
+    assert (got["verdict"], got["best"], got["cheapest"]) == ("does not reach the target",
+                                                              1e-2, "")
+    assert got["best_at"] == "rk4:f at dt = 0.01 s"
 
 
-def test_capped_rows_are_unresolved_never_within_tolerance():
-    """A row with `unresolved` set counts apart even where within_tol says True."""
-    rows = _rows(("e", "", "rk4", 0.01, "ok", "", 0.09, 0.3, True),
-                 ("e", "", "rk4", 0.02, "ok", "", 0.10, 0.2, False), unresolved=[True, "True"])
+def test_target_and_method_are_answered_apart():
+    """A row reaching the target while inconsistent with its method (an accurate engine
+    whose rk4 is not RK4) shows both answers: the target's word, the inconsistent count."""
+    rows = _rows(("e", "", "rk4", 0.01, "ok", "", 1e-6, 0.3, "inconsistent"),
+                 ("e", "", "rk4", 0.02, "ok", "", 0.10, 0.2, "unresolved"),
+                 ("e", "", "own", 0.02, "ok", "", 0.10, 0.2, "no method reference"))
+    rows["consistency_reason"] = ["error 1e-06 above the method's bound 1e-08 (100x)", "", ""]
     got = cell(rows, "err_max", 1e-4)
-    assert got["verdict"] == "unresolved"
-    assert got["note"] == "2 of 2 unresolved (capped tolerance)"
-    mixed = _rows(("e", "", "rk4", 0.01, "ok", "", 1e-5, 0.3, True),
-                  ("e", "", "rk4", 0.02, "ok", "", 0.10, 0.2, True), unresolved=[False, True])
-    assert cell(mixed, "err_max", 1e-4)["verdict"] == "pass"
+    assert got["verdict"] == "reaches the target" and got["inconsistent"] == 1
+    assert got["method"] == ("1 inconsistent (first: rk4 at dt = 0.01 s: error 1e-06 above "
+                             "the method's bound 1e-08 (100x)), 1 unresolved, 1 no method "
+                             "reference")
 
 
 def test_unsupported_and_failed_cells_carry_their_reason():
     unsupported = _rows(("e", "", "", np.nan, "unsupported", "e does not simulate fluid",
-                         np.nan, np.nan, False))
+                         np.nan, np.nan, ""))
     got = cell(unsupported, "err_max", 1e-4)
     assert (got["verdict"], got["note"]) == ("unsupported", "e does not simulate fluid")
-    failed = _rows(("e", "", "rk4", 0.1, "failed", "ZeroDivisionError", np.nan, np.nan, False))
+    failed = _rows(("e", "", "rk4", 0.1, "failed", "ZeroDivisionError", np.nan, np.nan, ""))
     got = cell(failed, "err_max", 1e-4)
     assert (got["verdict"], got["note"]) == ("not run", "failed: ZeroDivisionError")
 
@@ -66,15 +68,15 @@ class _Definitions:
 
 
 def test_scoreboard_has_one_row_per_case_variant_and_engine():
-    rows = _rows(("a", "", "rk4", 0.01, "ok", "", 1e-6, 0.3, True),
-                 ("b", "", "rk4", 0.01, "ok", "", 1e-2, 0.1, False),
-                 ("a", "", "rk4", 0.02, "ok", "", 1e-5, 0.1, True))
+    rows = _rows(("a", "", "rk4", 0.01, "ok", "", 1e-6, 0.3, "consistent"),
+                 ("b", "", "rk4", 0.01, "ok", "", 1e-2, 0.1, "inconsistent"),
+                 ("a", "", "rk4", 0.02, "ok", "", 1e-5, 0.1, "consistent"))
     table = pd.concat([rows.assign(case="c1"), rows.assign(case="c2")]).assign(
         variant="v", params="{}")
     board = scoreboard(table, _Definitions())
     assert list(zip(board["case"], board["engine"], board["verdict"])) == [
-        ("c1 / v", "a", "pass"), ("c1 / v", "b", "fail"),
-        ("c2 / v", "a", "pass"), ("c2 / v", "b", "fail")]
+        ("c1 / v", "a", "reaches the target"), ("c1 / v", "b", "does not reach the target"),
+        ("c2 / v", "a", "reaches the target"), ("c2 / v", "b", "does not reach the target")]
     assert list(board["best"]) == [1e-6, 1e-2, 1e-6, 1e-2]
     assert board["cheapest"].iloc[0] == "rk4 at dt = 0.02 s"
 

@@ -107,7 +107,7 @@ def test_tank_measured_limit_agrees_with_theory(tmp_path):
     (run,) = tmp_path.iterdir()
     (row,) = load_results(run).to_dict("records")
     assert row["case"] == "hydrostatic_tank" and row["variant"] == "stability_limit"
-    assert row["within_tol"] and abs(row["measured"] - row["theory"]) <= row["tolerance"]
+    assert (row["consistency"] == "consistent") and abs(row["measured"] - row["theory"]) <= row["tolerance"]
     (definition,) = load_definitions_list(run)
     assert {"measured", "theory"} <= set(definition["report_columns"])
     assert definition["units"] == "y = CFL number c0 dt / h"
