@@ -168,10 +168,10 @@ def _verdict(case, p, formulation, integrator, row):
         return f"{row['status']}: {row['reason']}"
     if formulation in AS_PRINTED:
         # the slide's flawed formula: the harness must catch it, not pass it
-        return "the seed formula passed its tolerance" if row["within_tol"] else None
-    if row["unresolved"]:
+        return "the seed formula passed its tolerance" if (row["consistency"] == "consistent") else None
+    if (row["consistency"] == "unresolved"):
         return _capped_verdict(case, p, formulation, integrator, row)
-    return None if row["within_tol"] else (f"err_max {row['err_max']:.3g} > tolerance "
+    return None if (row["consistency"] == "consistent") else (f"err_max {row['err_max']:.3g} > tolerance "
                                            f"{row['tolerance']:.3g}")
 
 
@@ -231,8 +231,8 @@ def _capped_verdict(case, p, formulation, integrator, row):
               f"{column} finite": math.isfinite(row[column]),
               "energy_drift finite": math.isfinite(row["energy_drift"]),
               f"{column} {row[column]:.3g} <= derived bound {derived:.3g}": row[column] <= derived,
-              "unresolved, never within tolerance": (row["unresolved"] is True
-                                                     and row["within_tol"] is False)}
+              "unresolved, never within tolerance": ((row["consistency"] == "unresolved") is True
+                                                     and (row["consistency"] == "consistent") is False)}
     failed = [what for what, ok in checks.items() if not ok]
     return f"capped row: {failed}" if failed else None
 

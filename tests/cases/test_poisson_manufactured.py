@@ -71,7 +71,7 @@ def _checked_row(variant, method):
 def test_case_runs_every_formulation(variant, method):
     row = _checked_row(variant, method)
     assert row["status"] == "ok", row["reason"]
-    assert row["within_tol"] and row["residual"] <= CASE.variant_params(variant)["rtol"]
+    assert (row["consistency"] == "consistent") and row["residual"] <= CASE.variant_params(variant)["rtol"]
     p = CASE.variant_params(variant)
     factor = discrete_factor(CASE.dims(p)[2])
     # err_continuum = (factor - 1) max|u| up to the solver's error (<= err_max)
@@ -96,7 +96,7 @@ def test_polynomial_is_its_own_discrete_solution():
 def test_polynomial_variant_runs_every_formulation_to_its_residual(method):
     row = _checked_row(POLY, method)
     assert row["status"] == "ok", row["reason"]
-    assert row["within_tol"] and row["residual"] <= CASE.variant_params(POLY)["rtol"]
+    assert (row["consistency"] == "consistent") and row["residual"] <= CASE.variant_params(POLY)["rtol"]
     assert row["iterations"] >= (1 if method == "direct" else 3)  # many modes: real work
 
 

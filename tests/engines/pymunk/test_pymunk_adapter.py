@@ -192,7 +192,7 @@ def test_reference_dt_within_tolerance(case, variant, engine_variant):
     c, p = _params(case, variant)
     row = _job(case, variant, c.reference_dt(p), engine_variant)
     assert row["status"] == "ok", row["reason"]
-    assert row["within_tol"], (row["err_max"], row["tolerance"])
+    assert (row["consistency"] == "consistent"), (row["err_max"], row["tolerance"])
 
 
 def test_default_bias_costs_accuracy_at_large_amplitude():

@@ -157,7 +157,7 @@ def test_reference_dt_within_tolerance(case, variant, integrator):
     c, p = _params(case, variant)
     row = _job(case, variant, integrator, c.reference_dt(p))
     assert row["status"] == "ok", row["reason"]
-    assert row["within_tol"], (row["err_max"], row["tolerance"])
+    assert (row["consistency"] == "consistent"), (row["err_max"], row["tolerance"])
     assert row["us_per_step"] > 0 and row["compile_s"] >= 0
 
 
@@ -172,7 +172,7 @@ def test_launch_per_step_variant_same_answer_at_launch_cost(case, over):
     dt = c.reference_dt(p)
     loop = _job(case, "default", SE, dt, **over)
     launch = _job(case, "default", SE, dt, "launch_per_step", **over)
-    assert launch["status"] == "ok" and launch["within_tol"]
+    assert launch["status"] == "ok" and (launch["consistency"] == "consistent")
     assert launch["err_max"] == loop["err_max"]
     settings = json.loads(launch["settings"])
     assert settings["per_step_python_call_us"] > 1.0
