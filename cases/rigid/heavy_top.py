@@ -25,25 +25,20 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.linalg import expm
 
-from refsim.case import ADAPTIVE_REASON, Param, adaptive_rtol, order_tolerance
+from refsim.case import ADAPTIVE_REASON, Param, adaptive_rtol
+from refsim.expected import discrete_solution
 from refsim.scene import RigidBodies, Scene
 from refsim.scene.pivots import RigidPivots
 
 from . import RigidCase, quat_multiply, quat_to_matrix, rotation_quaternion
+from ._bounds import (KICK_METHODS, KICK_REASON, PRINTED_REASON, chart_error, method_name,
+                      mode_error)
 
 REFERENCE_RTOL, REFERENCE_ATOL = 1e-12, 1e-14
 EPS = float(np.finfo(float).eps)
-
-
-PRINTED_NOTE = ("; matrix_printed: R + h [w]_x R is a first-order map off the rotations (no "
-                "dexpinv, det R grows by 1 + h^2 |w|^2 a step), so the orientation is first "
-                "order whatever the stepper: order min(p, 1)")
-
-
-def effective_order(order, engine_variant):
-    """min(order, 1) for the printed matrix formulation (PRINTED_NOTE), else the order."""
-    return min(order, 1) if engine_variant == "matrix_printed" else order
+SAFETY = 3.0  # the one safety factor of the bound (tolerance)
 
 
 def _check(p):
@@ -178,11 +173,12 @@ class HeavyTop(RigidCase):
     tags = ("rigid", "rotation", "pivot", "converged")
     observable, units = "e3", "1"
     params = {
-        "I1": Param(0.5, 0.0, 1e6, "transverse moment about the centre of mass (kg m^2)",
+        "I1": Param(0.7, 0.0, 1e6, "transverse moment about the centre of mass (kg m^2)",
                     low_inclusive=False),
         "I3": Param(1.0, 0.0, 1e6, "axial moment (kg m^2), != I1", low_inclusive=False),
-        "mass": Param(1.0, 0.0, 1e6, "M (kg)", low_inclusive=False),
-        "length": Param(1.0, 0.0, 1e3, "l: tip to centre of mass (m)", low_inclusive=False),
+        "mass": Param(1.25, 0.0, 1e6, "M (kg); not 1, nor l: a dropped M or l in M g l or "
+                      "M l^2 fails (I1' = 1.5, M l = 1 kg m)", low_inclusive=False),
+        "length": Param(0.8, 0.0, 1e3, "l: tip to centre of mass (m)", low_inclusive=False),
         "g": Param(9.81, 0.0, 1e3, "m/s^2", low_inclusive=False),
         "spin_ratio": Param(2.0, 0.0, 100.0, "w3 / w3c, w3c = 2 sqrt(I1' M g l) / I3",
                             low_inclusive=False),
@@ -268,7 +264,30 @@ class HeavyTop(RigidCase):
                 "L_z_drift": float(lz_drift), "L_3_drift": float(l3_drift),
                 **self.orientation_metrics(obs)}
 
+    def modes(self, p) -> list[tuple[float, float]]:
+        """[(amplitude, rate)] of e3's horizontal motion: linearised about the upright
+        (module docstring) a stable top released from rest moves e3 by sin theta0 (W+ e^{i W-
+        Omega_c t} - W- e^{i W+ Omega_c t}) / (W+ - W-): a slow precession of amplitude
+        sin theta0 W+ / (W+ - W-) at W- Omega_c and a nutation of amplitude sin theta0 W- /
+        (W+ - W-), taken at the fast top's nutation rate I3 w3 / I1' (>= W+ Omega_c, the
+        linear one). Below the threshold (no oscillating modes): one mode, the motion scale at
+        `fastest_rate` (the bound uses the linearised top's exact discrete solution there)."""
+        r = p["spin_ratio"]
+        if r <= 1.0:
+            return [(self.motion_scale(p), self.fastest_rate(p))]
+        root = np.sqrt(r * r - 1.0)
+        w_plus, w_minus = r + root, r - root
+        tilt = np.sin(p["tilt"])
+        nutation = p["I3"] * spin(p) / pivot_moments(p)[0]
+        return [(tilt * w_minus / (w_plus - w_minus), nutation),
+                (tilt * w_plus / (w_plus - w_minus), threshold_rate(p) * w_minus)]
+
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        """SAFETY x (a stable top: the named method's phase and amplitude errors on e3's two
+        modes, from its stability function, and the kick-drift methods' explicit gyroscopic
+        term; below the threshold: the exact discrete solution's error on the linearised top,
+        growth included) + the chart's turning error times |w x e3| / |w| and the printed
+        matrix's stretch (times the instability gain) + round-off (times the gain)."""
         scale, omega, gain = self.motion_scale(p), self.fastest_rate(p), self.instability_gain(p)
         omega_t = omega * p["duration"]
         rtol = adaptive_rtol(integrator)
@@ -276,17 +295,75 @@ class HeavyTop(RigidCase):
             return 10 * rtol * scale * omega_t * gain, ADAPTIVE_REASON + (
                 f", times the instability gain {gain:.3g}")
         printed = engine_variant == "matrix_printed"
-        order = effective_order(order, engine_variant)
-        base = order_tolerance(scale, omega_t, omega * dt, order, symplectic=False)
-        roundoff = p["duration"] / dt * EPS * (1.0 + omega_t)
-        reason = (f"order {order}: sin(max tilt) expm1(W t (W dt)^p) (see order_tolerance), W = "
-                  f"max(w3, I3 w3 / I1', Omega_c) = {omega:.3g} rad/s: e3 moves by the tilt's "
-                  "size; taken non-symplectic for every method (the explicit gyroscopic term "
-                  "drifts E, L_z and L_3 secularly, which moves the precession phase); times the "
-                  f"instability gain exp(Omega_c sqrt(1 - r^2) t) = {gain:.3g} below the "
-                  "threshold; plus round-off: eps a step, each step's rounding carried by a "
-                  "phase error growing with W t")
-        return (base + roundoff) * gain, reason + (PRINTED_NOTE if printed else "")
+        steps = p["duration"] / dt
+        speed, off_axis = orbit_rates(p)
+        lam = abs(p["I3"] - pivot_moments(p)[0]) / pivot_moments(p)[0] * spin(p)
+        modes = self.modes(p)
+        extra = chart_error(integrator, engine_variant or "quat_exp", off_axis, speed, dt,
+                            steps)
+        roundoff = steps * EPS * (1.0 + omega_t)
+        if p["spin_ratio"] <= 1.0:  # growing: the linearised top's exact discrete solution
+            linear = linear_top_error(integrator, p, dt)
+            bound = linear + gain * (extra + mode_error(
+                integrator, [], dt, steps, printed=(scale, speed) if printed else None))
+            # each rounding (eps of the unit axis) grows with the unstable mode, by the gain
+            # at most (which replaces the stable top's linear phase growth 1 + W t)
+            roundoff = steps * EPS * max(gain, 1.0 + omega_t)
+            reason = (f"order {order}: {SAFETY:g} x (the exact discrete solution's error of the "
+                      f"method on the linearised top, {linear:.3g}: I1' u'' = M g l u + I3 w3 "
+                      "J u', u = e3's horizontal part, from rest at sin theta0 (refsim.expected."
+                      "discrete_solution, its explicit gyroscopic kick included), against "
+                      "its exact solution, the growing mode included; plus, times the "
+                      f"instability gain {gain:.3g}, the orientation chart's turning error at "
+                      f"max|w| = ")
+        else:
+            bound = extra + mode_error(integrator, modes, dt, steps, kick=(scale, lam),
+                                       printed=(scale, speed) if printed else None)
+            text = ", ".join(f"{a:.3g} at {w:.3g} rad/s" for a, w in modes)
+            reason = (f"order {order}: {SAFETY:g} x (sum over e3's modes (amplitude a, rate w: "
+                      f"{text}) of a n (|phi(w h)| + |alpha(w h)|), n = {steps:.0f}: the "
+                      "method's phase and amplitude errors per step (refsim.expected."
+                      "oscillator_rates) on the precession and the nutation of the linearised "
+                      "top; plus the orientation chart's turning error at max|w| = ")
+        reason += (
+                   f"{speed:.3g} rad/s (_bounds.chart_step_angle; 0 for the exponential map) "
+                   f"times max |w x e3| / |w| = {off_axis:.3g}, the share of a turn about w "
+                   f"that moves e3); safety factor {SAFETY:g}")
+        if method_name(integrator) in KICK_METHODS and p["spin_ratio"] > 1.0:
+            reason += KICK_REASON.format(rate=lam, amplitude=scale)
+        if printed:
+            reason += PRINTED_REASON.format(rate=speed)
+        reason += (f"; plus round-off n eps max(1 + W t, gain) = {roundoff:.3g}: eps a step, "
+                   "each step's rounding carried by a phase error growing with W t or by the "
+                   "unstable mode")
+        return SAFETY * bound + roundoff, reason
+
+
+def linear_top_error(spec, p, dt) -> float:
+    """max over the run of |u_k - u(t_k)|: the named method's exact discrete solution
+    (`refsim.expected.discrete_solution`) on the top linearised about the upright, u'' =
+    Omega_c^2 u + (I3 w3 / I1') J u' (J the quarter turn about z; u = e3's horizontal part,
+    from rest at (sin theta0, 0)), against its exact solution exp(h M)^k."""
+    rate2 = threshold_rate(p) ** 2
+    gyro = p["I3"] * spin(p) / pivot_moments(p)[0]
+    accel = rate2 * np.eye(2)
+    damping = gyro * np.array([[0.0, -1.0], [1.0, 0.0]])
+    steps = np.arange(1, int(round(p["duration"] / dt)) + 1)
+    start = np.array([np.sin(p["tilt"]), 0.0])
+    x, _ = discrete_solution(spec, accel, damping, start, [0.0, 0.0], dt, steps)
+    flow = expm(dt * np.block([[np.zeros((2, 2)), np.eye(2)], [accel, damping]]))
+    z, exact = np.concatenate([start, [0.0, 0.0]]), np.empty((len(steps), 2))
+    for k in range(len(steps)):
+        z = flow @ z
+        exact[k] = z[:2]
+    return float(np.max(np.linalg.norm(x - exact, axis=1)))
+
+
+def orbit_rates(p) -> tuple[float, float]:
+    """(max |w|, max |w x e3| / |w|) over the reference run (1001 samples)."""
+    w_body, _ = reference_state(p, np.linspace(0.0, p["duration"], 1001))
+    speed = np.linalg.norm(w_body, axis=1)
+    return float(np.max(speed)), float(np.max(np.linalg.norm(w_body[:, :2], axis=1) / speed))
 
 
 CASE = HeavyTop()

@@ -14,6 +14,7 @@ from cases.rigid.heavy_top import (
     spin,
     threshold_rate,
 )
+from cases.rigid._defects import defect_error
 from refsim.registry import get_engine
 
 ENGINE = get_engine("refsim")
@@ -142,3 +143,20 @@ def test_bad_input():
         CASE.validate({"spin_ratio": -1.0})
     with pytest.raises(ValueError, match="low < high"):
         find_threshold(ENGINE, "rk4", 1e-2, low=1.2, high=1.0)
+
+
+@pytest.mark.parametrize("defect", ["heun_as_rk4", "rk3_as_rk4"])
+def test_an_rk4_that_is_heun_or_kutta_rk3_exceeds_the_rk4_bound_at_every_dt(defect):
+    p = CASE.variant_params('nutation')
+    for dt in CASE.dts(p):
+        tol = CASE.tolerance(p, "rk4", 4, dt, "quat_exp")[0]
+        assert defect_error(CASE, p, defect, "rk4", dt) > tol, (defect, dt)
+
+
+@pytest.mark.parametrize("defect", ["gravity_plus_0.1pct", "rest_length_plus_0.5pct",
+                                    "velocity_damping"])
+def test_a_wrong_parameter_exceeds_the_rk4_bound_at_the_finest_dt(defect):
+    p = CASE.variant_params('nutation')
+    dt = min(CASE.dts(p))
+    assert defect_error(CASE, p, defect, "rk4", dt) > \
+        CASE.tolerance(p, "rk4", 4, dt, "quat_exp")[0], defect
