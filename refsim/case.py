@@ -9,9 +9,16 @@ Contract for an implementer (one module in `cases/`, one `Case` subclass instanc
 4. `observables(p, obs)` maps stacked engine observations {"t", "x", "v", ...} to named arrays;
    `reference(p, t)` returns the same names from the exact/converged/experimental reference;
 5. `energy(p, obs)` (None where energy means nothing) and `energy_scale(p)`;
-6. `tolerance(p, integrator, order, dt, engine_variant, settings)` returns (tol, reason): the
-   bound the error must meet, derived from the method's order and the engine's effective
-   settings (e.g. a penalty stiffness), with its reason;
+6. `tolerance(p, integrator, order, dt, engine_variant, settings)` returns (bound, reason):
+   the error (in `tolerance_column(p)`) a correct implementation of the NAMED method must
+   stay within at this dt — its exact discrete solution's error where the case has one
+   (`refsim.expected`), else the method's error constant times the case's stated
+   sensitivity with one stated safety factor <= 3, plus round-off (`roundoff_tolerance`).
+   It is only asked for a method refsim defines (`refsim.integrators.method_info`); `order`
+   is that method's nominal order and `settings["integrator"]` that method's description
+   (so `is_symplectic(settings)` is the method's property); the other settings are the
+   engine's effective ones (a formulation, a penalty stiffness) and may add a stated term.
+   `target_error(p)` is the case's "good enough", the other verdict;
 7. `order_meaningful` (False where no convergence order in dt exists, e.g. impulses resolved
    exactly) and `figures(p)`: extra report figures as data (see `figures`), so the report asks
    the case and never branches on its name. `definition(variant, p)` is what the store keeps of
