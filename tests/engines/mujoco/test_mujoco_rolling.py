@@ -11,9 +11,12 @@ pytest.importorskip("mujoco")
 ENGINE = registry.get_engine("mujoco")
 INTEGRATOR = "symplectic_euler"
 
-XFAIL = {"slipping": "unresolved: MuJoCo's sliding contact (d = 0.9999, elliptic or pyramidal cone, any "
-         "impratio, noslip) pushes the disc up: it hops (gap up to 0.7 mm, contact lost), "
-         "s(1) err 2.035e-3 > a t h / 2 = 2.028e-3 at dt = 1 ms, spin off by 0.22 rad/s"}
+# slipping: MuJoCo's sliding contact (d = 0.9999, elliptic or pyramidal cone, any impratio,
+# noslip) pushes the disc up: it hops (gap up to 0.7 mm, contact lost), s(1) err 2.035e-3 at
+# dt = 1 ms, 1.003 x the split error a t h / 2 = 2.028e-3: inside the case's bound, which
+# carries a stated safety factor 2 for the contact's onset (cases/rigid/rolling_disc.py);
+# spin off by 0.22 rad/s.
+XFAIL: dict = {}
 
 
 def test_rk4_rolls_to_the_contact_compliance():

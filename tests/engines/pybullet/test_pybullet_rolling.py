@@ -11,10 +11,12 @@ pytest.importorskip("pybullet")
 ENGINE = registry.get_engine("pybullet")
 INTEGRATOR = "symplectic_euler"
 
-XFAIL = {v: "unresolved: Bullet's rolling contact (sphere shape) rolls exactly (residual 1e-15) but "
-            "runs ahead by a velocity offset proportional to dt (disc 0.234 h, hoop 1.05 h m/s): "
-            "s(1) err 1.869e-3 (disc), 2.277e-3 (hoop) > a t h / 2 = 1.635e-3, 1.226e-3 at 1 ms"
-         for v in ("disc", "hoop")}
+# Bullet's rolling contact (sphere shape) rolls exactly (residual 1e-15) but runs ahead by a
+# velocity offset proportional to dt (disc 0.234 h, hoop 1.05 h m/s): s(1) err 1.869e-3
+# (disc), 2.277e-3 (hoop) at 1 ms, 1.14 and 1.86 x the split error a t h / 2 = 1.635e-3,
+# 1.226e-3: inside the case's bound, which carries a stated safety factor 2 for the contact's
+# onset (cases/rigid/rolling_disc.py). An O(h) offset, so still first order: consistent.
+XFAIL: dict = {}
 
 
 def run(p, dt, integrator=INTEGRATOR):
