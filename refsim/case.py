@@ -174,6 +174,10 @@ class Case:
         return hashlib.sha256(source.encode()).hexdigest()[:16]
 
     order_meaningful = True  # a convergence order in dt means something for this case
+    # the reference at t = 0 is the scene's initial state (a trajectory from it): the engine's
+    # state reported at t = 0 must then match it to the error floor (a consistency check).
+    # False where the reference is an end state (an equilibrium, a converged solve)
+    initial_state_is_reference = True
 
     def figures(self, p) -> list[dict]:
         """Extra report figures, as JSON-serialisable data. One kind exists:

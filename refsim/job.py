@@ -154,7 +154,8 @@ def _verdicts(case, p, job, row) -> dict:
     settings = {**json.loads(row["settings"]), "integrator": method}
     bound, why = case.tolerance(p, job.integrator, method["order"], job.dt,
                                 job.engine_variant, settings)
-    return {**out, **judge(row[column], bound, why, case.motion_scale(p), row["err_initial"],
+    initial = row["err_initial"] if case.initial_state_is_reference else float("nan")
+    return {**out, **judge(row[column], bound, why, case.motion_scale(p), initial,
                            case.error_floor(p))}
 
 

@@ -69,6 +69,7 @@ class PoissonManufactured(Case):
                 "poly_2d_1025": {"solution": "polynomial", "points": 1025}}
     default_variants = quick_variants = ("2d", "poly_2d")
     order_meaningful = False
+    initial_state_is_reference = False  # the reference is the converged solve, not the guess
 
     # -- grid and fields ----------------------------------------------------------------------
     @staticmethod

@@ -230,3 +230,26 @@ def test_solver_failure_with_a_bounded_state_is_failed_with_one_time(message):
     status, why, t = stop
     assert status == "failed" and why.startswith(message.split(" at t=")[0])
     assert why.count("t=") == 1 and t == pytest.approx(0.03)
+
+
+def test_judge_reads_the_bound_the_initial_state_and_half_the_motion():
+    from refsim.verdicts import judge
+    ok = judge(1e-6, 2e-6, "why", 1.0, 0.0, 1e-12)
+    assert ok["consistency"] == "consistent" and ok["tolerance"] == 2e-6
+    above = judge(3e-6, 2e-6, "why", 1.0, 0.0, 1e-12)
+    assert above["consistency"] == "inconsistent" and "1.5x" in above["consistency_reason"]
+    late = judge(1e-6, 2e-6, "why", 1.0, 1e-4, 1e-12)  # one step ahead at t = 0
+    assert late["consistency"] == "inconsistent" and "t = 0" in late["consistency_reason"]
+    unknown_start = judge(1e-6, 2e-6, "why", 1.0, float("nan"), 1e-12)
+    assert unknown_start["consistency"] == "consistent"
+    assert judge(0.1, 0.5, "why", 1.0, 0.0, 1e-12)["consistency"] == "unresolved"
+
+
+def test_equilibrium_case_is_not_judged_on_its_start():
+    """hanging_chain's reference is the end state: the start is far from it by design."""
+    from refsim.registry import get_case
+    case = get_case("hanging_chain")
+    p = case.variant_params("default")
+    row = run_job(Job("hanging_chain", "default", "refsim", "", "symplectic_euler_dk",
+                      case.reference_dt(p)), repeats=0)
+    assert row["err_initial"] > 1e-3 and row["consistency"] == "consistent"
