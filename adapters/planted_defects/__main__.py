@@ -1,5 +1,5 @@
 """python -m adapters.planted_defects [--defect NAME ...] [--case NAME ...] [--quick]
-[--workers N]: runs each planted defect where it matters (and the control engine on the same
+[--workers N] [--out CSV]: runs each planted defect where it matters (and the control engine on the same
 jobs) and prints which defects the verdicts catch (see driver)."""
 from __future__ import annotations
 
@@ -21,8 +21,12 @@ def main(argv=None) -> int:
                         help="the quick matrix: each case's reference dt and quick variants")
     parser.add_argument("--workers", type=int, default=2,
                         help="processes (default 2; 1 runs in this process)")
+    parser.add_argument("--out", help="also write every row (defects and control) to this "
+                        "CSV file")
     args = parser.parse_args(argv)
     summaries, table, seconds = run(args.defect, args.case, args.quick, args.workers)
+    if args.out:
+        table.to_csv(args.out, index=False)
     print(render(summaries, false_alarms(table), seconds, len(table)))
     return 0
 

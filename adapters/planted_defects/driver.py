@@ -44,19 +44,21 @@ CONTROL = DEFECTS["control"]
 def caught(defect_rows, correct_rows) -> str | None:
     """The reason of the first defect row that the verdicts catch, None when none is caught.
     Rows pair up in order (the defect's and the control's run of the same job). A row is
-    caught when it is inconsistent with its named method, misses the case's accuracy target
-    where the control's row reaches it, or is diverged or failed where the control's is ok."""
+    caught when it is inconsistent with its named method where the control's row is not (an
+    inconsistency the control shares is a false alarm, not a catch), misses the case's
+    accuracy target where the control's row reaches it, or is diverged or failed where the
+    control's is ok."""
     for d, c in zip(defect_rows, correct_rows):
         label = f"{d['variant']} dt={d['dt']:.3g}"
         if d["status"] in ("diverged", "failed") and c["status"] == "ok":
             return f"{label}: {d['status']}: {d['reason']}"
         if d["status"] != "ok":
             continue
-        if d["consistency"] == "inconsistent":
+        if d["consistency"] == "inconsistent" and c["consistency"] != "inconsistent":
             return f"{label}: inconsistent: {d['consistency_reason']}"
         if not _true(d["reaches_target"]) and c["status"] == "ok" and _true(c["reaches_target"]):
-            return (f"{label}: misses the target {d['target_error']:.3g} where the control "
-                    "reaches it")
+            return (f"{label}: misses the target: err_max {d['err_max']:.3g}, target "
+                    f"{d['target_error']:.3g} (the control's {c['err_max']:.3g} reaches it)")
     return None
 
 
