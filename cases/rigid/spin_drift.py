@@ -25,7 +25,7 @@ from refsim.expected import oscillator_rates
 from refsim.scene import RigidBodies, Scene
 
 from . import RigidCase, quat_multiply, rotation_angle_between, rotation_quaternion
-from ._bounds import (KICK_METHODS, chart_step_angle, euler_amplitude_rate, gyroscopic_rate,
+from ._bounds import (KICK_METHODS, chart_step_angle, gyroscopic_rate, kick_amplitude_rate,
                       method_name)
 
 FORMULATIONS = ("matrix_printed", "matrix_polar", "quat_normalised", "quat_exp")
@@ -171,16 +171,17 @@ class SpinDrift(RigidCase):
 
     def growth(self, integrator, p, dt) -> tuple[float, float, str]:
         """(log amplification per step of a perturbation of w, the rate mu at which that mode
-        turns, why). The kick-drift steps are explicit Euler on the body-frame Euler equations
-        (the drift turns the body about the new w, which leaves it unchanged): ln(1 +
-        (lambda h)^2) / 2 at mu = lambda. The RK and implicit steps act on the world-frame w,
+        turns, why). The kick-drift steps act on the body-frame Euler equations (the drift
+        turns the body about the new w, which leaves it unchanged): their step's growth on
+        v' = B v at mu = lambda (symplectic Euler: explicit Euler, ln(1 + (lambda h)^2) / 2). The RK and implicit steps act on the world-frame w,
         where a body-frame perturbation turning at lambda turns at lambda and |w| + lambda: the
         larger log amplitude factor of the two (oscillator_rates; 0 where it damps)."""
         lam = self.gyroscopic_rate(p)
         if method_name(integrator) in KICK_METHODS:
-            return euler_amplitude_rate(lam * dt), lam, (
-                f"explicit Euler on the body-frame gyroscopic oscillation, lambda = {lam:.3g} "
-                "rad/s: ln(1 + (lambda h)^2) / 2 a step")
+            return kick_amplitude_rate(integrator, lam * dt), lam, (
+                f"the kick-drift step's growth on the body-frame gyroscopic oscillation, "
+                f"lambda = {lam:.3g} rad/s (_bounds.kick_amplitude_rate: ln(1 + (lambda h)^2) "
+                "/ 2 a step for symplectic Euler, whose kick is explicit Euler on it)")
         candidates = []
         for mu in (lam, p["spin"] + lam):
             log_amp = oscillator_rates(integrator, mu * dt)[1]

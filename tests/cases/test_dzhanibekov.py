@@ -194,3 +194,12 @@ def test_refsim_rows_are_within_their_bound_at_the_coarsest_dt():
         tol = CASE.tolerance(p, integrator, order, dt, "quat_exp")[0]
         # within the bound, and not more than the safety factor x 4 above the error
         assert err <= tol < 10 * err, (integrator, err, tol)
+
+
+def test_a_velocity_verlet_that_is_explicit_euler_exceeds_the_verlet_bound_at_every_dt():
+    """refsim's rigid group offers no velocity Verlet; its explicit Euler rows stand for an
+    engine whose "velocity_verlet" is explicit Euler: every one errs above Verlet's bound."""
+    p = CASE.variant_params('far')
+    for dt in CASE.dts(p):
+        tol = CASE.tolerance(p, "velocity_verlet", 2, dt, "quat_exp")[0]
+        assert defect_error(CASE, p, "control", "explicit_euler", dt) > tol, dt

@@ -160,3 +160,12 @@ def test_a_wrong_parameter_exceeds_the_rk4_bound_at_the_finest_dt(defect):
     dt = min(CASE.dts(p))
     assert defect_error(CASE, p, defect, "rk4", dt) > \
         CASE.tolerance(p, "rk4", 4, dt, "quat_exp")[0], defect
+
+
+def test_a_velocity_verlet_that_is_explicit_euler_exceeds_the_verlet_bound_at_every_dt():
+    """refsim's rigid group offers no velocity Verlet; its explicit Euler rows stand for an
+    engine whose "velocity_verlet" is explicit Euler: every one errs above Verlet's bound."""
+    p = CASE.variant_params('nutation')
+    for dt in CASE.dts(p):
+        tol = CASE.tolerance(p, "velocity_verlet", 2, dt, "quat_exp")[0]
+        assert defect_error(CASE, p, "control", "explicit_euler", dt) > tol, dt

@@ -211,3 +211,12 @@ def test_orientation_drift_is_the_largest_reported_defect():
     metrics = CASE.extra_metrics(p, obs, CASE.observables(p, obs), CASE.reference(p, t))
     assert metrics["orientation_drift"] == pytest.approx(1.0001 ** 2 - 1, rel=1e-12)
     assert metrics["w_drift"] == 0.0
+
+
+def test_a_velocity_verlet_that_is_explicit_euler_exceeds_the_verlet_bound_at_every_dt():
+    """refsim's rigid group offers no velocity Verlet; its explicit Euler rows stand for an
+    engine whose "velocity_verlet" is explicit Euler: every one errs above Verlet's bound."""
+    p = CASE.variant_params('fast')
+    for dt in CASE.dts(p):
+        tol = CASE.tolerance(p, "velocity_verlet", 2, dt, "quat_exp")[0]
+        assert defect_error(CASE, p, "control", "explicit_euler", dt) > tol, dt
