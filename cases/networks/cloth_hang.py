@@ -32,7 +32,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from refsim.case import Case, Param, is_symplectic
+from refsim.case import Case, Param, roundoff_tolerance
+from refsim.expected import oscillator_rates
 from refsim.models.spring_network import kinetic_energy, network_potential
 from refsim.scene import Scene, SpringNetwork
 
@@ -42,6 +43,27 @@ from ._converged import converged_run
 
 GRAVITY = (0.0, 0.0, -9.81)
 REFERENCE_REFINEMENT = 4  # the reference step: the sweep's smallest step / 4
+SAFETY = 2.0  # the bound's one stated safety factor (see ClothHang.tolerance)
+RATE_Y = 0.1  # w h at which a method's oscillator error coefficient is read
+
+
+def method_constant(integrator: str, order: int) -> tuple[float, str]:
+    """(C, why): the named method's local error coefficient per step, C h^(p+1) |x^(p+1)|.
+    Order 1: the Taylor remainder of a one-derivative step, 1/2 (symplectic Euler's position
+    error is its O(h) shape error, which its phase error, of order 2, does not show). Order
+    >= 2: the leading coefficient of its phase plus log-amplitude error per step on the
+    oscillator x'' = -w^2 x, (|phi(y)| + |alpha(y)|) / y^(p+1) from its stability function
+    (refsim.expected.oscillator_rates) at y = RATE_Y (within 10 % of the limit y -> 0: RK4
+    1/120 = 0.0083 -> 0.0090, velocity Verlet 1/24, implicit midpoint 1/12)."""
+    if order <= 1:
+        return 0.5, "first order: Taylor remainder h^2 x''/2"
+    try:
+        phase, amplitude = oscillator_rates(integrator, RATE_Y)
+    except ValueError:  # an adaptive spec: no step matrix, the generic Taylor remainder
+        return 0.5, f"no step matrix for {integrator}: the generic remainder 1/2"
+    constant = (abs(phase) + abs(amplitude)) / RATE_Y ** (order + 1)
+    return constant, (f"its oscillator phase + log-amplitude error per step over "
+                      f"y^(p+1) at y = {RATE_Y:g}, from its stability function")
 
 
 def cloth_network(p) -> SpringNetwork:
@@ -208,17 +230,27 @@ class ClothHang(Case):
                 "reference_error": self.reference_error(p)}
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        """S C_m t dt^p D_(p+1) / sinc(y_s)^(p-1) + the reference's error + round-off (the
+        reason below states each factor)."""
         run = self.reference_run(p)
-        order = int(round(order))
+        order = max(int(round(order)), 1)
+        constant, why_constant = method_constant(integrator, order)
         derivative = run.derivative_norm(order + 1)
-        bound = 0.5 * p["t_end"] * dt ** order * derivative
+        y_s = min(self.omega_max(p) * (run.t[1] - run.t[0]), 1.0)
+        differencing = (y_s / math.sin(y_s)) ** (order - 1)
+        bound = (SAFETY * constant * p["t_end"] * dt ** order * derivative * differencing)
         reference_error = self.reference_error(p)
-        return bound + reference_error, (
-            f"order {order}: the sum of t/dt local errors of at most 1/2 dt^(p+1) |x^(p+1)| "
-            "each (symplectic Euler and Baraff-Witkin h^2 x''/2, velocity Verlet h^3 x'''/6, "
-            f"RK4 below), 1/2 t dt^p D, D = max_t mean_i |x_i^(p+1)| = {derivative:.3g} from "
-            "the reference's accelerations (dissipative, bounded motion: errors carried, not "
-            f"amplified); plus the reference's own error {reference_error:.3g} (Richardson)")
+        roundoff, why_round = roundoff_tolerance(int(round(p["t_end"] / dt)), p["side"])
+        return bound + reference_error + roundoff, (
+            f"{integrator} (order {order}): the sum of t/dt local errors C h^(p+1) |x^(p+1)| "
+            f"carried, not amplified (dissipative, bounded motion), C = {constant:.4g} "
+            f"({why_constant}), times D = max_t mean_i |x_i^(p+1)| = {derivative:.3g} from "
+            f"the reference's accelerations differenced p - 1 times at spacing h_s (each "
+            f"central difference scales a mode of frequency w by sin(w h_s) / (w h_s): "
+            f"corrected by (y_s / sin y_s)^(p-1) = {differencing:.3g}, y_s = w_max h_s = "
+            f"{y_s:.3g}), times the safety factor {SAFETY:g} (the nonlinear stretch's "
+            f"elementary differentials beyond the linear modes); plus the reference's own "
+            f"error {reference_error:.3g} (Richardson)" + why_round)
 
     def reference_error(self, p) -> float:
         """The converged reference's estimated error (Richardson, RK4 at h vs 2h), m."""
