@@ -16,7 +16,8 @@ from refsim.engine import IntegratorInfo, jsonable
 from refsim.integrators import method_info
 from refsim.metrics import energy_drift, error_norms
 from refsim.registry import get_case, get_engine
-from refsim.verdicts import NO_REFERENCE, judge, reaches
+from refsim.verdicts import (INCONSISTENT, NO_REFERENCE, UNRESOLVED, declared_reason, judge,
+                             reaches)
 
 STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
 # The timing pass steps fresh models with nothing observed, repeating until its runs have taken
@@ -155,8 +156,13 @@ def _verdicts(case, p, job, row) -> dict:
     bound, why = case.tolerance(p, job.integrator, method["order"], job.dt,
                                 job.engine_variant, settings)
     initial = row["err_initial"] if case.initial_state_is_reference else float("nan")
-    return {**out, **judge(row[column], bound, why, case.motion_scale(p), initial,
-                           case.error_floor(p))}
+    out.update(judge(row[column], bound, why, case.motion_scale(p), initial,
+                     case.error_floor(p)))
+    declared = declared_reason(row["declared_order"], method["order"])
+    if declared is not None and out["consistency"] != UNRESOLVED:
+        out.update(consistency=INCONSISTENT, consistency_reason="; ".join(
+            r for r in (out["consistency_reason"], declared) if r))
+    return out
 
 
 def _build(engine, scene, job):

@@ -235,6 +235,10 @@ def _row_status(r) -> str:
     verdict = str(r.get("consistency", "")) or "no verdict"
     if verdict == "inconsistent":
         verdict = f"INCONSISTENT ! ({r.get('consistency_reason', '')})"
+    declared, nominal = float(r.get("declared_order", np.nan)), float(r.get("nominal_order",
+                                                                            np.nan))
+    if np.isfinite(declared) and declared != nominal:
+        verdict += f" (declares order {declared:g}, the method's is {nominal:g})"
     target = "reaches the target" if truthy(r.get("reaches_target")) else "short of the target"
     return f"ok, {verdict}, {target}"
 

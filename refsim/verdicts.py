@@ -89,6 +89,15 @@ def order_reason(fitted: float, stderr: float, dt_lo: float, dt_hi: float,
     return None
 
 
+def declared_reason(declared: float, nominal: float) -> str | None:
+    """An engine that declares a lower order than the method it names says itself that it is
+    not that method (None when it does not)."""
+    if math.isfinite(declared) and math.isfinite(nominal) and declared < nominal - ORDER_SLACK:
+        return (f"the engine declares order {declared:g} for it, the method's order is "
+                f"{nominal:g}")
+    return None
+
+
 def reaches(error: float, target: float) -> bool:
     return bool(math.isfinite(error) and math.isfinite(target) and error <= target)
 

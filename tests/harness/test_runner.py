@@ -253,3 +253,10 @@ def test_equilibrium_case_is_not_judged_on_its_start():
     row = run_job(Job("hanging_chain", "default", "refsim", "", "symplectic_euler_dk",
                       case.reference_dt(p)), repeats=0)
     assert row["err_initial"] > 1e-3 and row["consistency"] == "consistent"
+
+
+def test_a_lower_declared_order_is_inconsistent_with_the_method_named():
+    from refsim.verdicts import declared_reason
+    assert "declares order 2" in declared_reason(2.0, 4.0)
+    assert declared_reason(4.0, 4.0) is None and declared_reason(float("nan"), 4.0) is None
+    assert declared_reason(5.0, 4.0) is None  # a higher claim is judged by its errors
