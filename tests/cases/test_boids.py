@@ -1,8 +1,12 @@
 """Boids case: the converged reference, flocking against Ha & Liu's bound, the figure."""
 import numpy as np
+import pytest
 
+from adapters.planted_defects.engines import register_all
 from cases.particle_fields.boids import CASE
+from refsim.job import Job, run_job
 from refsim.models.flocking import velocity_variance
+from refsim.registry import unregister
 
 
 def test_reference_keeps_the_mean_velocity_and_flocks_within_the_bound():
@@ -27,3 +31,73 @@ def test_figure_is_the_bound_curve():
 
 def test_reynolds_variant_has_no_bound_figure():
     assert CASE.figures(CASE.variant_params("reynolds")) == []
+
+
+# -- the bound: the exact discrete solution of the named method on the frozen linear flow ----
+
+P = CASE.variant_params("cucker_smale")
+SWEEP = sorted(CASE.dts(P) + CASE.order_dts(P))
+
+
+@pytest.fixture(scope="module")
+def planted():
+    names = register_all()
+    yield
+    for name in names:
+        unregister("engine", name)
+
+
+def _error(engine, integrator, dt):
+    row = run_job(Job("boids", "cucker_smale", engine, "", integrator, dt), repeats=0)
+    assert row["status"] == "ok", row["reason"]
+    return row["err_max"]
+
+
+@pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler", "heun", "rk4",
+                                        "dopri5", "velocity_verlet", "leapfrog"])
+def test_refsim_within_its_bound_and_the_bound_is_tight(integrator):
+    """Every dt of the sweep: error <= bound <= 5 x error (measured 1.9 .. 4.7: the safety
+    factor 2, and the reference's error where the error is at the floor)."""
+    for dt in SWEEP:
+        err = _error("refsim", integrator, dt)
+        bound, reason = CASE.tolerance(P, integrator, 0, dt)
+        assert err <= bound <= 5.0 * err, (integrator, dt, err, bound, reason)
+
+
+@pytest.mark.parametrize("defect,integrator,named,order", [
+    ("planted_heun_as_rk4", "rk4", "rk4", 4), ("planted_rk3_as_rk4", "rk4", "rk4", 4),
+    ("planted_euler_as_verlet", "velocity_verlet", "velocity_verlet", 2)])
+def test_a_wrong_method_exceeds_the_named_methods_bound(planted, defect, integrator, named,
+                                                        order):
+    for dt in SWEEP:
+        err = _error(defect, integrator, dt)
+        if err > CASE.error_floor(P):
+            assert err > CASE.tolerance(P, named, order, dt)[0], (defect, dt, err)
+
+
+def test_velocity_damping_is_caught_at_the_finest_dt(planted):
+    dt = SWEEP[0]
+    err = _error("planted_velocity_damping", "rk4", dt)
+    assert err > CASE.tolerance(P, "rk4", 4, dt)[0]
+
+
+def test_frozen_error_is_the_discrete_solution_of_the_full_linear_system():
+    """The modal computation equals refsim.expected.discrete_solution on the whole (x, v)
+    system x'' = B v (one coordinate at a time) to a relative 1e-8."""
+    from scipy.linalg import expm
+
+    from cases.particle_fields.boids import alignment_laplacian, frozen_error
+    from refsim.expected import discrete_solution
+    x0, v0 = CASE.initial_state(P)
+    n, dt = len(x0), 0.04
+    b = alignment_laplacian(P, x0)
+    jac = np.block([[np.zeros((n, n)), np.eye(n)], [np.zeros((n, n)), b]])
+    steps = int(round(CASE.t_end(P) / dt))
+    stride = max(1, int(round(CASE.sample_dt(P) / dt)))
+    ks = np.unique(np.append(np.arange(0, steps + 1, stride), steps))
+    sq = np.zeros(len(ks))
+    for c in range(3):
+        xd, _ = discrete_solution("heun", np.zeros((n, n)), b, x0[:, c], v0[:, c], dt, ks)
+        exact = np.array([(expm(jac * k * dt) @ np.r_[x0[:, c], v0[:, c]])[:n] for k in ks])
+        sq += np.sum((xd - exact) ** 2, axis=1)
+    assert np.isclose(frozen_error(P, "heun", dt), np.sqrt(sq.max()), rtol=1e-8)
