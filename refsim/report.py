@@ -59,6 +59,7 @@ def write_report(run_dir, target_error=None, out=None):
     manifest = json.loads((run_dir / "manifest.json").read_text())
     series = load_series(run_dir)
     definitions = Definitions.of_run(run_dir)
+    table = _with_targets(table, definitions, target_error)
     style = Style.of_table(table)
     blocks = _header(manifest, table) + [("nav",)]
     blocks += overview_blocks(table, definitions, target_error, out, style)
@@ -74,6 +75,22 @@ def write_report(run_dir, target_error=None, out=None):
     md_path.write_text(render_markdown(blocks, out))
     html_path.write_text(render_html(blocks, manifest))
     return md_path, html_path
+
+
+def _with_targets(table, definitions, target_error):
+    """reaches_target against `--target-error` when given, else as stored; a run stored
+    before the column existed gets it from its stored case definitions."""
+    if "reaches_target" in table and target_error is None:
+        return table
+    table = table.copy()
+    reach = []
+    for _, r in table.iterrows():
+        d = definitions.of_row(r)
+        target = float(d["target_error"]) if target_error is None else target_error
+        value = float(r.get(d["tolerance_column"], np.nan))
+        reach.append(bool(r["status"] == "ok" and np.isfinite(value) and value <= target))
+    table["reaches_target"] = reach
+    return table
 
 
 _SECTIONS: tuple = ()  # what forked workers render (set just before the pool forks)
