@@ -94,8 +94,9 @@ def test_no_unit_mass():
 @pytest.mark.slow
 def test_every_default_matrix_row_within_its_bound():
     """The whole default matrix (162 rows, ~15 s): zero rows above their bound; above the error
-    floor the bound is the error (bound/error max 1.01; adaptive 1.9). Below it the bound is the linear
-    worst-case round-off n eps S and the error the actual round-off, 20..750x less."""
+    floor the bound is the error (bound/error max 1.01; adaptive 1.9). Below it the bound is
+    the linear worst-case round-off n eps S and the error the actual round-off, 18..500x
+    less."""
     for job in expand(cases=[CASE.name], engines=["refsim"]):
         row = run_job(job, repeats=0)
         p = CASE.variant_params(job.variant)
