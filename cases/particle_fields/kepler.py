@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import ADAPTIVE_REASON, Case, Param, adaptive_rtol, is_symplectic, \
-    roundoff_tolerance
+from refsim.case import Case, Param, roundoff_tolerance
+from refsim.models.nbody_gravity import GravitySystem, pair_jacobian
 from refsim.scene import Particles, Scene
 from refsim.scene.gravity_pairs import GravityPairs
 
@@ -30,7 +30,8 @@ from ._orbits import (
     invariants_of,
     kepler_period,
     measured_period,
-    orbit_tolerance,
+    orbit_bound,
+    sampled_steps,
     two_body_state,
     vector_drift,
 )
@@ -135,22 +136,26 @@ class Kepler(Case):
     def _roundoff(self, p, dt):
         """S = 2 (1 + e) a: rounding both bodies' positions and velocities (|v| t-scaled by the
         periapsis rate) once; the phase error a rounding starts grows as 1 + 1.5 w t (the
-        energy-period coupling at the mean motion n = 2 pi / T, see orbit_tolerance)."""
+        energy-period coupling at the mean motion n = 2 pi / T: dlnT/dlnE = -1.5)."""
         steps = int(round(self.t_end(p) / dt))
         bound, reason = roundoff_tolerance(steps, 2.0 * self.motion_scale(p))
         growth = 1.0 + 1.5 * 2.0 * np.pi / period(p) * self.t_end(p)
         return bound * growth, f"{reason}, times 1 + 1.5 n t = {growth:.3g}"
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        scale, rate, t_end = self.motion_scale(p), periapsis_rate(p), self.t_end(p)
+        t_end = self.t_end(p)
         roundoff, roundoff_reason = self._roundoff(p, dt)
-        rtol = adaptive_rtol(integrator)
-        if rtol is not None:
-            return 10 * rtol * scale * rate * t_end + roundoff, ADAPTIVE_REASON + \
-                f" (omega = the periapsis rate {rate:.3g} rad/s)" + roundoff_reason
-        tol, reason = orbit_tolerance(scale, rate, t_end, dt, order, is_symplectic(settings),
-                                      2.0 * np.pi / period(p))
+        tol, reason = orbit_bound(
+            integrator, GravitySystem(masses(p), G), lambda t: flat_state(p, t),
+            lambda x: pair_jacobian(x.reshape(len(x), 2, 3), masses(p), G), dt,
+            sampled_steps(t_end, self.sample_dt(p), dt))
         return tol + roundoff, reason + roundoff_reason
+
+
+def flat_state(p, t):
+    """(x, v) of both bodies at times t, flat (T, 6): the exact solution."""
+    x, v = two_body_state(np.asarray(t, float), SEMI_MAJOR, p["e"], G, masses(p))
+    return x.reshape(len(x), -1), v.reshape(len(v), -1)
 
 
 CASE = Kepler()
