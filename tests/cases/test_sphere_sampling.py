@@ -19,12 +19,23 @@ def test_polyhedron_reached(variant):
     assert row["polyhedron"] == variant
 
 
-def test_half_run_assumption_holds():
-    """The tolerance assumes the random start is left behind in half the run: at half the
-    run the error is already below the bound the second half's linear contraction starts
-    from (180 deg)... and at the end far below the tolerance."""
-    p = CASE.variant_params("octahedron", {"duration": 6.0})
-    row = run_job(Job(CASE.name, "octahedron", "refsim", "", "rk4", 0.05,
-                      params=(("duration", 6.0),)), repeats=0)
-    assert row["status"] == "ok" and row["err_final"] < 1.0
-    assert p["duration"] == 6.0
+@pytest.mark.parametrize("variant", list(CASE.variants))
+@pytest.mark.parametrize("integrator", ["explicit_euler", "heun", "rk4"])
+def test_refsim_within_its_bound_and_the_bound_is_tight(variant, integrator):
+    """error <= bound <= 3 x error at every dt (measured 1.8 .. 2.0 on the default variants:
+    the safety factor 2 times the flow-scaled prediction's 1.00 .. 1.11)."""
+    p = CASE.variant_params(variant)
+    for dt in CASE.dts(p):
+        row = run_job(Job(CASE.name, variant, "refsim", "", integrator, dt), repeats=0)
+        bound, reason = CASE.tolerance(p, integrator, 0, dt)
+        assert row["status"] == "ok"
+        assert row["err_final"] <= bound <= 3.0 * row["err_final"], (dt, row["err_final"],
+                                                                      reason)
+
+
+def test_a_wrong_stable_method_reaches_the_same_fixed_point():
+    """What the case cannot catch, measured: Heun run where RK4 is named ends as close to the
+    polyhedron as RK4 (the fixed point does not depend on the method), within RK4's bound."""
+    p = CASE.variant_params("tetrahedron")
+    heun = run_job(Job(CASE.name, "tetrahedron", "refsim", "", "heun", 0.05), repeats=0)
+    assert heun["err_final"] <= CASE.tolerance(p, "rk4", 4, 0.05)[0]
