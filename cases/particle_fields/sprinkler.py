@@ -1,4 +1,5 @@
-"""The sprinkler (slide 002), a ballistic emitter: particles born at a steady rate, each on its closed-form parabola.
+"""The sprinkler (slide 002), a ballistic emitter: particles born at a steady rate, each on its
+closed-form parabola.
 
 Scene: `Scene(extra=(Emitter(...),), gravity=(0, 0, -g))`, rate `rate` particles/s, lifetime
 `lifetime` s, spawn velocity (0, 0, speed) + spread x uniform[-1, 1)^3 (seeded, the part's
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import Case, Param, roundoff_tolerance
+from refsim.case import EPS, Case, Param, roundoff_tolerance
 from refsim.models import emitter as em
 from refsim.scene import Scene
 from refsim.scene.emitter import Emitter
@@ -111,16 +112,24 @@ class SprinklerCase(Case):
                 "birth_delay_max": float(np.max(observed["birth_delay"]))}
 
     def state_scale(self, p):
-        """S = |x|max + |v|max lifetime (m): one rounding of x, plus one of v carried over the
-        rest of a life (origin 0)."""
+        """S = (X + V lifetime / 2) / 2 (m): a step rounds x by eps/2 |x| <= eps/2 X (X = the
+        motion scale, the farthest a particle gets from the origin) and v by eps/2 |v| <= eps/2
+        V (V = |v0|max + g lifetime), which the rest of the life carries: over a life of L
+        steps sum_j (L - j) h = L lifetime / 2 (to one step), so L eps S in all."""
         top = abs(p["speed"]) + np.sqrt(3.0) * p["spread"]
-        return self.motion_scale(p) + (top + p["g"] * p["lifetime"]) * p["lifetime"]
+        speed = top + p["g"] * p["lifetime"]
+        return 0.5 * (self.motion_scale(p) + 0.5 * speed * p["lifetime"]), speed
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        steps = em.life_steps(self.emitter(p), dt) + int(round(p["duration"] / dt))
-        roundoff, roundoff_reason = roundoff_tolerance(steps, self.state_scale(p))
-        roundoff_reason += ("; n counts a life's steps plus the run's (the age t - birth is "
-                            "rounded at the run's time scale)")
+        steps = em.life_steps(self.emitter(p), dt)
+        scale, speed = self.state_scale(p)
+        roundoff, roundoff_reason = roundoff_tolerance(steps, scale)
+        # the reference's own evaluation x0 + v0 a + g a^2 / 2: <= 4 roundings of <= eps/2 X,
+        # and the age a = t - birth rounded by eps/2 t <= eps/2 T, times the speed
+        reference = EPS * (2.0 * self.motion_scale(p) + 0.5 * p["duration"] * speed)
+        roundoff += reference
+        roundoff_reason += (f"; n counts a life's steps, S = (X + V lifetime / 2) / 2 (see "
+                            f"state_scale); plus the reference's rounding {reference:.3g} m")
         if integrator.partition(":")[0] in FIRST_ORDER:
             lag = 0.5 * p["g"] * dt * p["lifetime"]
             return lag + roundoff, ("first order, exact discrete parabola: x_k lags or leads "
