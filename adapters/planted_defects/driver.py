@@ -23,6 +23,7 @@ import json
 import math
 import time
 from dataclasses import replace
+from functools import lru_cache
 
 import pandas as pd
 
@@ -111,13 +112,12 @@ def _key(row) -> tuple:
     return tuple(row[k] for k in KEY)
 
 
-def _scale_and_column(row, cache={}):
-    key = (row["case"], row["variant"], row["params"])
-    if key not in cache:
-        case = get_case(row["case"])
-        p = case.variant_params(row["variant"], json.loads(row["params"]))
-        cache[key] = (float(case.motion_scale(p)), case.tolerance_column(p))
-    return cache[key]
+@lru_cache(maxsize=None)
+def _scale_and_column(case_name: str, variant: str, params: str) -> tuple:
+    """The case's motion scale and the column its tolerance judges (case data, not results)."""
+    case = get_case(case_name)
+    p = case.variant_params(variant, json.loads(params))
+    return float(case.motion_scale(p)), case.tolerance_column(p)
 
 
 def unreachable(row) -> bool:
@@ -132,7 +132,7 @@ def matters(d, c) -> bool:
         return True
     if d["status"] != "ok":
         return False
-    scale, column = _scale_and_column(c)
+    scale, column = _scale_and_column(c["case"], c["variant"], c["params"])
     for col in dict.fromkeys(("err_max", column)):
         a, b = float(d[col]), float(c[col])
         if math.isnan(a) != math.isnan(b):
