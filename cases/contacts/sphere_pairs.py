@@ -91,22 +91,61 @@ class SpherePairs(SingleImpactCase):
         w1[1] += np.cross(arm2, impulse) / inertia[1]
         return v1, w1
 
-    def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        contact = ContactInfo.of(settings)
-        v, e = p["speed"], p["restitution"]
-        if contact.soft:
-            return 0.1 * (1 + e) * v, (
-                "soft (spring-damper) contact: the restitution obtained from a damping ratio is "
-                "approximate, +9 % to -10 % (ENGINE_NOTES.md), on a velocity change (1+e) v")
-        tol, reason = 1e-9 * v, ("impulse contact with Newton's restitution law (and Coulomb "
-                                 "stick/slide): the exact outcome to round-off")
-        if contact.detection == "discrete" and p["impact"] > 0:
-            v_rel = 2 * v
-            tol += (1 + e) * v_rel * v_rel * dt / p["radius"]
-            reason += (f"; plus discrete detection: the pair is found up to one step late, "
-                       f"overlapped by up to v_rel dt, which tilts the contact normal by up to "
-                       f"v_rel dt / (2 r) and the outcome by (1 + e) v_rel times twice that")
-        return tol, reason
+    def impact_kinematics(self, p):
+        """(mu = m1 m2 / (m1 + m2), |u_n|, |u| at the contact point, |u_t| of the centres,
+        sqrt(1/m1^2 + 1/m2^2)) at first touch: what the outcome's sensitivities are made of."""
+        _, v0, m, w0 = self.initial_state(p)
+        r, b = p["radius"], p["impact"]
+        n = np.array([np.sqrt(4 * r * r - b * b), 0.0, b]) / (2 * r)
+        centres = v0[1] - v0[0]
+        u = centres + np.cross(w0[1], -r * n) - np.cross(w0[0], r * n)
+        tangential = float(np.linalg.norm(centres - (centres @ n) * n))
+        return (m[0] * m[1] / (m[0] + m[1]), abs(float(u @ n)), float(np.linalg.norm(u)),
+                tangential, float(np.hypot(1 / m[0], 1 / m[1])))
 
+    def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        """Impulse contact: the exact outcome to round-off, plus, for discrete detection on an
+        oblique impact, the turn of the normal over a late step. Soft contact: the engine's
+        stated restitution calibration residual, plus the normal's turn over the contact's
+        stated duration (and the late step). Reasons state the derivations."""
+        contact = ContactInfo.of(settings)
+        v, e, r, mu_f = p["speed"], p["restitution"], p["radius"], p["friction"]
+        mu, u_n, u, u_t, spread = self.impact_kinematics(p)
+        tol, reason = 1e-9 * v, "round-off 1e-9 v"
+        # d[(u.n) n]/d(theta) has magnitude <= |u|: turning the normal by theta moves the
+        # impulse (1 + e) mu (u.n) n by (1 + e) mu |u| theta, the friction impulse (<= mu_f
+        # times it) at most as much again; each sphere's velocity by that over its mass
+        turn_gain = (1 + e) * mu * u * (1 + mu_f) * spread
+        if contact.soft:
+            if contact.restitution_residual <= 0.0:
+                return 0.1 * (1 + e) * v, (
+                    "soft (spring-damper) contact stating no calibration residual: the "
+                    "restitution obtained from a damping ratio is approximate, +9 % to -10 % "
+                    "(ENGINE_NOTES.md), on a velocity change (1+e) v")
+            de = contact.restitution_residual
+            restitution = de * mu * u_n * spread
+            theta = u_t * (contact.duration_s + dt) / (2 * r)
+            tol += restitution + turn_gain * theta
+            return tol, (
+                f"soft (spring-damper) contact, the engine's stated parameters: its calibrated "
+                f"restitution is within residual_max = {de:.3g} of e at every contact onset "
+                f"(the spring-damper is linear in acceleration space: e depends on neither "
+                f"mass nor speed), so the normal impulse is off by at most de mu |u_n| and the "
+                f"velocities by de mu |u_n| sqrt(1/m1^2 + 1/m2^2) = {restitution:.3g}; plus the "
+                f"centre line's turn while the impulse is delivered, theta = |u_t| (T_c + dt) "
+                f"/ 2r = {theta:.3g} rad (T_c = {contact.duration_s:.3g} s the stated contact "
+                f"duration, one step of late detection), moving the outcome by at most "
+                f"(1 + e) mu |u| (1 + mu_f) sqrt(1/m1^2 + 1/m2^2) theta = "
+                f"{turn_gain * theta:.3g}; plus {reason}")
+        reason = ("impulse contact with Newton's restitution law (and Coulomb stick/slide): "
+                  "the exact outcome to " + reason)
+        if contact.detection == "discrete" and p["impact"] > 0:
+            theta = u_t * dt / (2 * r)
+            tol += turn_gain * theta
+            reason += (f"; plus discrete detection: the pair is found up to one step late, "
+                       f"its centre line turned by up to |u_t| dt / 2r = {theta:.3g} rad, which "
+                       f"moves the outcome by at most (1 + e) mu |u| (1 + mu_f) "
+                       f"sqrt(1/m1^2 + 1/m2^2) theta = {turn_gain * theta:.3g}")
+        return tol, reason
 
 CASE = SpherePairs()

@@ -81,10 +81,13 @@ def test_oblique_is_within_the_discrete_detection_bound(variant):
     spheres overlap (1.0e-3 m here), whose centre line is tilted from the touching one, and
     Bullet has no time of impact (CCD off). Measured err_max 8.57e-3 m/s (oblique) and
     6.81e-3 m/s (with friction and spin) at dt = 1e-3, inside the case's discrete-detection
-    bound (1 + e) v_rel^2 dt / r = 8e-2; the next test shows the whole error is that tilt."""
+    bound (1 + e) mu |u| (1 + mu_f) sqrt(1/m1^2 + 1/m2^2) |u_t| dt / 2r = 1.41e-2 (oblique) and
+    3.18e-2 (friction, spin 20 rad/s: |u| = 3.46 m/s at the contact point): the pair is found
+    0.59 of a step late here, so 1.65 and 4.7 x below it; the next test shows the whole error is
+    that tilt."""
     row = _row(variant)
     assert (row["consistency"] == "consistent"), (row["err_max"], row["tolerance"])
-    assert 1e-4 < row["err_max"] < 0.2 * row["tolerance"]
+    assert 1e-4 < row["err_max"] <= row["tolerance"] <= 6.0 * row["err_max"]
 
 
 @pytest.mark.parametrize("variant", ["oblique", "oblique_friction"])
