@@ -2,7 +2,8 @@
 molecular-dynamics test (e.g. Frenkel & Smit, Understanding Molecular Simulation, 2002,
 sec. 4.3; Allen & Tildesley, Computer Simulation of Liquids, 2017, sec. 3.2).
 
-Reduced units eps = sigma = m = 1 (time sqrt(m sigma^2 / eps)). N particles at number density
+Units eps = sigma = 1, particle mass m = `mass` (default 2 kg, not 1: an engine dropping the
+mass fails; time unit sqrt(m sigma^2 / eps)). N particles at number density
 rho = 0.7 sigma^-2 and temperature T = 1.0 eps/k (a dense supercritical fluid: the 2D LJ
 critical point is near T = 0.5, rho = 0.35; liquid-like packing, about 6 neighbours in the
 first shell), cut-off 2.5 sigma, potential shifted to 0 there, square periodic box of side
@@ -40,10 +41,10 @@ from refsim.scene import Particles, Scene
 from refsim.scene.lennard_jones import LennardJones
 
 
-def lattice_start(n, density, temperature, seed):
+def lattice_start(n, density, temperature, seed, mass=1.0):
     """(positions (n, 3), velocities (n, 3), box side L): the first n sites of a square
     lattice filling a box of side sqrt(n / density), Maxwell-Boltzmann velocities with zero
-    mean and kinetic energy (n - 1) T exactly (m = 1), z = 0."""
+    mean and kinetic energy (n - 1) T exactly (particle mass `mass`), z = 0."""
     side = math.sqrt(n / density)
     per_row = math.ceil(math.sqrt(n))
     spacing = side / per_row
@@ -51,20 +52,21 @@ def lattice_start(n, density, temperature, seed):
     x = np.zeros((n, 3))
     x[:, 0], x[:, 1] = (k % per_row + 0.5) * spacing, (k // per_row + 0.5) * spacing
     v = np.zeros((n, 3))
-    v[:, :2] = np.random.default_rng(int(seed)).normal(0.0, math.sqrt(temperature), (n, 2))
+    v[:, :2] = np.random.default_rng(int(seed)).normal(0.0, math.sqrt(temperature / mass),
+                                                       (n, 2))
     v[:, :2] -= v[:, :2].mean(axis=0)
-    v *= math.sqrt((n - 1) * temperature / (0.5 * np.sum(v * v)))
+    v *= math.sqrt((n - 1) * temperature / (0.5 * mass * np.sum(v * v)))
     return x, v, side
 
 
-def thermal_omega(temperature):
-    """w_T = sqrt(U''(r_T) / mu), mu = 1/2: a pair meeting with the mean relative kinetic
+def thermal_omega(temperature, mass=1.0):
+    """w_T = sqrt(U''(r_T) / mu), mu = m / 2: a pair meeting with the mean relative kinetic
     energy (2D: <mu v_rel^2 / 2> = k T) turns at U(r_T) = T, where the curvature U'' is the
     largest a typical collision meets (4 (s12 - s6) = T: s6 = (1 + sqrt(1 + T)) / 2)."""
     s6 = 0.5 * (1.0 + math.sqrt(1.0 + temperature))
     r = s6 ** (-1.0 / 6.0)
     curvature = 4.0 * (156.0 * s6 * s6 - 42.0 * s6) / (r * r)
-    return math.sqrt(curvature / 0.5)
+    return math.sqrt(curvature / (0.5 * mass))
 
 
 class LJGas(Case):
@@ -82,6 +84,7 @@ class LJGas(Case):
         "duration": Param(0.02, 0.0, 1e3, "run length (sqrt(m sigma^2 / eps))",
                           low_inclusive=False),
         "seed": Param(1.0, 0.0, 2**31, "velocity draw seed"),
+        "mass": Param(2.0, 0.0, 1e3, "particle mass (kg; eps = sigma = 1)", low_inclusive=False),
     }
     # the default run: N = 10^3 over 2..8 steps (budget); by name: a longer horizon, 10^4
     variants = {"default": {}, "long": {"duration": 2.0},
@@ -96,10 +99,10 @@ class LJGas(Case):
 
     def scene(self, p):
         n = int(p["particles"])
-        x, v, side = lattice_start(n, p["density"], p["temperature"], p["seed"])
+        x, v, side = lattice_start(n, p["density"], p["temperature"], p["seed"], p["mass"])
         part = LennardJones(epsilon=1.0, sigma=1.0, cutoff=p["cutoff"], shift=True,
                             box=(side, side))
-        return Scene(bodies=Particles(mass=np.ones(n), position=x, velocity=v),
+        return Scene(bodies=Particles(mass=np.full(n, p["mass"]), position=x, velocity=v),
                      extra=(part,), dim=2)
 
     def t_end(self, p):
@@ -136,7 +139,7 @@ class LJGas(Case):
     def energy(self, p, obs):
         x, v = np.asarray(obs["x"], float), np.asarray(obs["v"], float)
         potential = self.model(p).energy(x[..., :2])
-        return 0.5 * np.sum(v * v, axis=(-2, -1)) + potential
+        return 0.5 * p["mass"] * np.sum(v * v, axis=(-2, -1)) + potential
 
     def energy_scale(self, p):
         return p["particles"] * p["temperature"]
@@ -152,7 +155,7 @@ class LJGas(Case):
         return np.abs(e - e[0])
 
     def extra_metrics(self, p, obs, observed, reference):
-        momentum = np.sum(np.asarray(obs["v"], float), axis=1)  # m = 1
+        momentum = p["mass"] * np.sum(np.asarray(obs["v"], float), axis=1)
         return {"momentum_drift": float(np.max(np.linalg.norm(momentum, axis=1)))}
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
@@ -180,8 +183,8 @@ def _trajectory(key, dt):
     at second order (a defect is a smooth function of the state it starts from)."""
     p = dict(key)
     n = int(p["particles"])
-    system = LennardJonesSystem(np.ones(n), CASE.model(p), dim=2)
-    x0, v0, _ = lattice_start(n, p["density"], p["temperature"], p["seed"])
+    system = LennardJonesSystem(np.full(n, p["mass"]), CASE.model(p), dim=2)
+    x0, v0, _ = lattice_start(n, p["density"], p["temperature"], p["seed"], p["mass"])
     stepper, h = get_integrator("rk4"), dt / REFERENCE_SUBSTEPS
     state, xs, vs = (x0.ravel(), v0.ravel()), [x0.ravel()], [v0.ravel()]
     for _ in range(int(round(p["duration"] / dt))):

@@ -20,7 +20,7 @@ def registered():
 
 
 def test_start_has_zero_momentum_and_exact_temperature():
-    x, v, side = lattice_start(1000, 0.7, 1.0, 1)
+    x, v, side = lattice_start(1000, 0.7, 1.0, 1)  # m = 1 (the default argument)
     assert side == pytest.approx(np.sqrt(1000 / 0.7), rel=1e-15)
     assert np.all((x[:, :2] > 0) & (x[:, :2] < side)) and np.all(x[:, 2] == 0)
     # zero mean to round-off of a 1000-term sum of O(1) speeds, then scaled by ~1
@@ -58,9 +58,10 @@ def test_momentum_is_conserved_to_round_off():
                                                  ("explicit_euler", 1.0)])
 def test_energy_error_order_on_a_fixed_horizon(integrator, nominal):
     p = CASE.variant_params("default")
+    # the default N = 1000 (at N = 200, m = 2, velocity Verlet's bounded energy oscillation
+    # bends the fit to 2.33: too few collisions to average it)
     order, used, errs = measured_order("lj_gas", "default", "refsim", integrator,
-                                       CASE.dts(p) + CASE.order_dts(p),
-                                       particles=200.0)
+                                       CASE.dts(p) + CASE.order_dts(p))
     # the energy error c dt^p (1 + O(w_T dt)): at w_T dt <= 0.39 the slope is p to ~0.2
     assert used == len(errs) and order == pytest.approx(nominal, abs=0.2), errs
 
