@@ -111,13 +111,15 @@ class StiffSpring(Case):
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         """The named method's own error: its exact discrete solution on u'' = -(k/m) u -
         (c/m) u' (refsim.expected) against the closed form, max over the samples the harness
-        observes (err_max), plus round-off; dopri5_adaptive: fixed-step Dormand-Prince at the
-        largest step its controller accepts on this motion (see `adaptive_bound`)."""
+        observes (err_max), plus round-off; dopri5_adaptive: Dormand-Prince run at the largest
+        steps its controller accepts on this motion (see `adaptive_bound`). Plus an engine's
+        stated damping formulation (`_damping_formulation`)."""
         t_end, w0 = self.t_end(p), self.omega(p)
         a, b = -w0 * w0, -2.0 * p["zeta"] * w0
         reference = lambda t: self.reference(p, t)["displacement"]  # noqa: E731
         if adaptive_rtol(integrator) is not None:
             return self._adaptive(p, integrator, dt, a, b)
+        extra, extra_reason = self._damping_formulation(p, dt, settings)
         steps = int(round(t_end / dt))
         k = sample_steps(steps, int(round(self.sample_dt(p) / dt)))
         u, _ = discrete_solution(integrator, a, b, p["amplitude"], 0.0, dt, k)
@@ -126,11 +128,31 @@ class StiffSpring(Case):
         # most eps/2 (L0 + 2A) in u (a linear oscillation keeps it, neither grown nor damped)
         roundoff, roundoff_reason = roundoff_tolerance(
             steps, 0.5 * (p["rest_length"] + 2 * p["amplitude"]))
-        return deviation + roundoff, (
+        return deviation + roundoff + extra, (
             f"{integrator}'s exact discrete solution on u'' = -w0^2 u - 2 zeta w0 u' "
             f"(w0 dt = {w0 * dt:.3g}, zeta = {p['zeta']:g}; refsim.expected) errs "
             f"{deviation:.3g} m from the closed form at the {len(k)} samples (max)"
-            + roundoff_reason)
+            + extra_reason + roundoff_reason)
+
+    def _damping_formulation(self, p, dt, settings, samples=4000):
+        """An engine that states an exponential dashpot (settings springs.damping_method, e.g.
+        pymunk: the velocity after the kick times exp(-g h), g = c / m) in place of the
+        method's explicit -g v h: per step its v differs by v (e^(-g h) - 1 + g h) + h a
+        (e^(-g h) - 1), at most |v| (g h)^2 / 2 + g h^2 |a|; each velocity change moves every
+        later u by at most its / w0 (u^2 + (u'/w0)^2 never grows), so over the run at most
+        (g^2 h / 2 TV(u) + g h TV(u')) / w0, TV the closed form's total variations."""
+        method = str(((settings or {}).get("springs") or {}).get("damping_method", ""))
+        if p["zeta"] == 0 or "exp" not in method:
+            return 0.0, ""
+        w0 = self.omega(p)
+        rate = 2.0 * p["zeta"] * w0
+        ref = self.reference(p, np.linspace(0.0, self.t_end(p), samples))
+        tv_u = float(np.sum(np.abs(np.diff(ref["displacement"]))))
+        tv_v = float(np.sum(np.abs(np.diff(ref["velocity"]))))
+        term = (0.5 * rate * rate * dt * tv_u + rate * dt * tv_v) / w0
+        return term, (f"; plus the engine's exponential dashpot in place of the method's "
+                      f"explicit one: (g^2 h TV(u) / 2 + g h TV(u')) / w0 = {term:.3g} m "
+                      f"(g = c / m = {rate:.3g} /s; see _damping_formulation)")
 
     def _adaptive(self, p, integrator, dt, a, b, samples=4000):
         """dopri5_adaptive along the closed form, state (x, 1, v, 0): x = L0 + u absolute
