@@ -37,6 +37,22 @@ class ConvergedRun:
             d = np.gradient(d, spacing, axis=0, edge_order=2)
         return float(np.max(np.mean(np.linalg.norm(d, axis=2), axis=1)))
 
+    def derivative_series(self, order: int) -> np.ndarray:
+        """(s,) mean over nodes of |d^order x / dt^order| at the stored times (see
+        `derivative_norm`)."""
+        spacing = self.t[1] - self.t[0]
+        d = self.accel
+        for _ in range(order - 2):
+            d = np.gradient(d, spacing, axis=0, edge_order=2)
+        return np.mean(np.linalg.norm(d, axis=2), axis=1)
+
+    def derivative_integral(self, order: int) -> float:
+        """int_0^t_end mean_i |x_i^(order)| dt by the trapezoid rule over the stored times:
+        the sum over steps of h |x^(order)(t_k)| (a sum of local errors) in the limit."""
+        series = self.derivative_series(order)
+        spacing = self.t[1] - self.t[0]
+        return float(spacing * (np.sum(series) - 0.5 * (series[0] + series[-1])))
+
     def at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(x, v) at times t by cubic Hermite interpolation between stored samples."""
         t = np.asarray(t, float)

@@ -230,21 +230,22 @@ class ClothHang(Case):
                 "reference_error": self.reference_error(p)}
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        """S C_m t dt^p D_(p+1) / sinc(y_s)^(p-1) + the reference's error + round-off (the
-        reason below states each factor)."""
+        """S C_m dt^p int_0^t mean_i |x_i^(p+1)| / sinc(y_s)^(p-1) + the reference's error +
+        round-off (the reason below states each factor)."""
         run = self.reference_run(p)
         order = max(int(round(order)), 1)
         constant, why_constant = method_constant(integrator, order)
-        derivative = run.derivative_norm(order + 1)
+        derivative = run.derivative_integral(order + 1)
         y_s = min(self.omega_max(p) * (run.t[1] - run.t[0]), 1.0)
         differencing = (y_s / math.sin(y_s)) ** (order - 1)
-        bound = (SAFETY * constant * p["t_end"] * dt ** order * derivative * differencing)
+        bound = SAFETY * constant * dt ** order * derivative * differencing
         reference_error = self.reference_error(p)
         roundoff, why_round = roundoff_tolerance(int(round(p["t_end"] / dt)), p["side"])
         return bound + reference_error + roundoff, (
-            f"{integrator} (order {order}): the sum of t/dt local errors C h^(p+1) |x^(p+1)| "
-            f"carried, not amplified (dissipative, bounded motion), C = {constant:.4g} "
-            f"({why_constant}), times D = max_t mean_i |x_i^(p+1)| = {derivative:.3g} from "
+            f"{integrator} (order {order}): the sum of the local errors C h^(p+1) "
+            f"|x^(p+1)(t_k)| over the steps, carried, not amplified (dissipative, bounded "
+            f"motion), C = {constant:.4g} ({why_constant}): C h^p times I = int_0^t mean_i "
+            f"|x_i^(p+1)| dt = {derivative:.3g} (trapezoid over the stored times) from "
             f"the reference's accelerations differenced p - 1 times at spacing h_s (each "
             f"central difference scales a mode of frequency w by sin(w h_s) / (w h_s): "
             f"corrected by (y_s / sin y_s)^(p-1) = {differencing:.3g}, y_s = w_max h_s = "
