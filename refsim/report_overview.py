@@ -150,7 +150,9 @@ def heatmap(board: pd.DataFrame, path: Path, title: str, style=None):
         i, j = cases.index(r.case), engines.index(r.engine)
         if math.isfinite(r.best) and math.isfinite(r.target) and r.target > 0:
             ratio[i, j] = np.log10(max(r.best, r.floor, 1e-300) / r.target)
-        ax.text(j, i, _annotation(r), ha="center", va="center", fontsize=6.5)
+        dark = abs(ratio[i, j]) > 2.5  # the colour map's deep ends: white text reads there
+        ax.text(j, i, _annotation(r), ha="center", va="center", fontsize=6.5,
+                color="white" if dark else "black")
     image = ax.imshow(np.ma.masked_invalid(ratio), cmap="RdYlGn_r", vmin=-4, vmax=4,
                       aspect="auto")
     ax.set_xticks(range(len(engines)), engines, fontsize=8)

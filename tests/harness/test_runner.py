@@ -171,7 +171,8 @@ def test_pendulum_bound_counts_an_engines_point_inertia():
     p = case.variant_params("default")
     plain, _ = case.tolerance(p, "rk4", 4, 1e-4, "", {})
     with_inertia, why = case.tolerance(p, "rk4", 4, 1e-4, "", {"point_inertia": 1e-12})
-    assert with_inertia - plain == pytest.approx(1.0 * np.sqrt(9.81) * 10.0 * 0.5e-12)
+    # I / (2 m L^2) with m = 0.5 kg, L = 1 m: 1e-12, times w0 t = sqrt(9.81) x 10 s
+    assert with_inertia - plain == pytest.approx(1.0 * np.sqrt(9.81) * 10.0 * 1e-12)
     assert "bob's own inertia I = 1e-12 kg m^2" in why
 
 

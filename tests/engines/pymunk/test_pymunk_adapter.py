@@ -186,13 +186,22 @@ def test_ten_e0_bound_finds_the_modified_energy_limit():
     ("stiff_spring", "underdamped", ""), ("stiff_spring", "critical", ""),
     ("stiff_spring", "overdamped", ""),
     ("pendulum", "default", ""), ("pendulum", "large_amplitude", ""),
-    ("pendulum", "default", "default_bias"),
 ])
 def test_reference_dt_within_tolerance(case, variant, engine_variant):
     c, p = _params(case, variant)
     row = _job(case, variant, c.reference_dt(p), engine_variant)
     assert row["status"] == "ok", row["reason"]
     assert (row["consistency"] == "consistent"), (row["err_max"], row["tolerance"])
+
+
+def test_default_bias_is_not_drift_kick_euler():
+    """ENGINE_NOTES: pymunk's default PinJoint error_bias pulls the rod back with a dissipative
+    velocity correction each step: not the drift-kick Euler it names. Against that method's
+    bound (0.0030 rad at the reference dt) it errs 0.0050 rad (measured): inconsistent."""
+    c, p = _params("pendulum", "default")
+    row = _job("pendulum", "default", c.reference_dt(p), "default_bias")
+    assert row["status"] == "ok" and row["consistency"] == "inconsistent"
+    assert row["err_max"] > row["tolerance"]
 
 
 def test_default_bias_costs_accuracy_at_large_amplitude():
