@@ -13,7 +13,12 @@ bodies with stacking", SIGGRAPH 2003.
 
 Observables and metrics: see `cases.contacts._impact` (`velocity` in m/s compared after the
 impact, `position_err`, `momentum_drift`, `penetration_max`, `energy_drift` against the exact
-kinetic energy). Discrete detection earns the tilted-normal allowance on oblique impacts.
+kinetic energy). Bounds (`tolerance`): an impulse contact gives the exact outcome to
+round-off; discrete detection on an oblique impact finds the pair up to a step late, its centre
+line turned by |u_t| dt / 2r, which moves the outcome by at most (1 + e) mu |u| (1 + mu_f)
+sqrt(1/m1^2 + 1/m2^2) times that angle; a soft (spring-damper) contact errs by the engine's
+stated restitution calibration residual times mu |u_n| sqrt(1/m1^2 + 1/m2^2), plus the same
+turn over its stated contact duration and one step.
 """
 from __future__ import annotations
 
