@@ -20,6 +20,8 @@ Extra metrics: `return_error` (m), `momentum_drift` max |P - P0| / (sum m |v|)(0
 `angular_momentum_drift` max |L - L0| / (sum m |x| |v|)(0) (L0 is 0 to the ICs' digits, so
 an absolute scale), `energy_growth` max |E - E0| over the second half of the run / over the
 first half (about 1: bounded, symplectic; about 2: linear secular drift).
+Tolerance (`_orbits.orbit_bound`): twice Henrici's linearised global error of the named method
+along the converged orbit, plus round-off and REFERENCE_ERROR.
 """
 from __future__ import annotations
 

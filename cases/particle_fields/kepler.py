@@ -16,6 +16,9 @@ from start to end per period run (NaN for e = 0: no periapsis), `momentum_drift`
 max |P - P0| / (mu v_max), `period_error` (T_measured - T) / T with T_measured from the last
 apoapsis passage (`_orbits.measured_period`: cubic Hermite, floor below 1e-9 T on the default
 sampling). `energy_drift` is relative to |E0| = G m_1 m_2 / (2 a).
+Tolerance (`_orbits.orbit_bound`): twice Henrici's linearised global error of the named method
+(its local error from the exact state at every step, propagated by the orbit's variational
+equation), plus round-off.
 """
 from __future__ import annotations
 
