@@ -66,8 +66,8 @@ def mode_error(spec: str, modes, dt: float, steps: float, gain: float = 0.0,
     the named method on those oscillations after n = `steps` steps (module docstring); plus,
     for a kick-drift method, a n ln(1 + (w h)^2) / 2 for `kick` = (a, w), the explicit
     gyroscopic term's amplitude growth (not amplified by G: it is an amplitude error of the
-    gyroscopic oscillation), and for `printed` = (a, w) the printed matrix's stretch
-    a n ln(1 + (w h)^2) / 2 (1 + G/2)."""
+    gyroscopic oscillation), and for `printed` = (a, w[, G_p]) the printed matrix's stretch
+    a n ln(1 + (w h)^2) / 2 (1 + G_p/2), G_p = G unless the case states the stretch's own."""
     growth = 1.0 + 0.5 * gain
     total = 0.0
     for amplitude, rate in modes:
@@ -75,8 +75,9 @@ def mode_error(spec: str, modes, dt: float, steps: float, gain: float = 0.0,
         total += amplitude * steps * (phase + log_amp * growth)
     if kick is not None and method_name(spec) in KICK_METHODS:
         total += kick[0] * steps * kick_amplitude_rate(spec, kick[1] * dt)
-    if printed is not None:
-        total += printed[0] * steps * euler_amplitude_rate(printed[1] * dt) * growth
+    if printed is not None:  # (a, w) or (a, w, its own phase gain)
+        own = growth if len(printed) < 3 else 1.0 + 0.5 * printed[2]
+        total += printed[0] * steps * euler_amplitude_rate(printed[1] * dt) * own
     return total
 
 

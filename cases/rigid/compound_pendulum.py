@@ -140,8 +140,11 @@ class CompoundPendulum(RigidCase):
         # its energy error 2 n |alpha| changes the period by kappa of it: kappa w0 t n |alpha|
         gain = 2.0 * kappa * w_t
         speed = 2.0 * w0 * np.sin(0.5 * min(theta0, np.pi))  # max |theta'| of the swing
+        # the printed stretch s scales I_p by s^2 and the torque by s: w0 ~ s^(-1/2), a phase
+        # error w0 t (s - 1) / 2, (s - 1) growing linearly: gain w0 t / 2 on top of kappa's
+        stretch_gain = gain + 0.5 * w_t
         drift = mode_error(integrator, [(theta0, w0)], dt, steps, gain,
-                           printed=(theta0, speed) if printed else None)
+                           printed=(theta0, speed, stretch_gain) if printed else None)
         phase_only = mode_error(integrator, [(theta0, w0)], dt, steps, 0.0)
         drift = max(drift - phase_only, 0.0)  # the energy terms only: linear error has the rest
         # the chart's turning error: theta is the turning itself (sensitivity 1)
@@ -157,7 +160,9 @@ class CompoundPendulum(RigidCase):
                   f"h (_bounds.chart_step_angle, 0 for the exponential map): {chart:.3g} rad); "
                   f"safety factor {SAFETY:g}")
         if printed:
-            reason += PRINTED_REASON.format(rate=speed)
+            reason += PRINTED_REASON.format(rate=speed) + (
+                f", its phase gain 2 kappa w0 t + w0 t / 2 = {stretch_gain:.3g} (I_p grows as "
+                "s^2 and the torque as s: w0 ~ s^(-1/2))")
         return SAFETY * (swing + drift + chart) + roundoff * growth, reason + roundoff_reason + (
             f", times 1 + kappa w0 t = {growth:.3g}")
 
