@@ -165,11 +165,15 @@ class Case:
         return self.bodies(p) * self.t_end(p) / dt
 
     def source_hash(self) -> str:
-        """Hash of the source of every module the case's class is built from (its own and its
-        base classes' outside refsim.case, e.g. a shared cases/contacts/_impact.py), so that an
-        edit to a shared helper module changes the hash of every case using it."""
+        """Hash of the source of every module the case is built from: its own and its base
+        classes' outside refsim.case (e.g. a shared cases/contacts/_impact.py), and the modules
+        of its own package those import from (e.g. a shared bounds helper,
+        cases/rigid/_bounds.py), so that an edit to a shared helper module changes the hash of
+        every case using it."""
         modules = dict.fromkeys(inspect.getmodule(k) for k in type(self).__mro__
                                 if k.__module__ not in (__name__, "builtins"))
+        for module in list(modules):
+            modules.update(dict.fromkeys(_package_imports(module)))
         source = "".join(inspect.getsource(m) for m in modules if m is not None)
         return hashlib.sha256(source.encode()).hexdigest()[:16]
 
@@ -211,6 +215,20 @@ class Case:
         diff = np.asarray(observed[self.observable]) - np.asarray(reference[self.observable])
         return np.abs(diff) if diff.ndim == 1 else np.linalg.norm(
             diff.reshape(len(diff), -1), axis=1)
+
+
+def _package_imports(module) -> list:
+    """The modules of `module`'s own package that it imports names or modules from."""
+    if module is None or "." not in module.__name__:
+        return []
+    package = module.__name__.rsplit(".", 1)[0] + "."
+    found = []
+    for value in vars(module).values():
+        source = value if inspect.ismodule(value) else inspect.getmodule(value)
+        if source is not None and source is not module and \
+                source.__name__.startswith(package):
+            found.append(source)
+    return found
 
 
 def adaptive_rtol(integrator: str) -> float | None:

@@ -261,3 +261,13 @@ def test_a_lower_declared_order_is_inconsistent_with_the_method_named():
     assert "declares order 2" in declared_reason(2.0, 4.0)
     assert declared_reason(4.0, 4.0) is None and declared_reason(float("nan"), 4.0) is None
     assert declared_reason(5.0, 4.0) is None  # a higher claim is judged by its errors
+
+
+def test_source_hash_covers_the_case_packages_helper_modules():
+    """An edit to a helper module a case imports from its own package (dzhanibekov's bounds in
+    cases/rigid/_bounds.py) must change the case's hash: compare never reads it silently."""
+    import inspect
+    from refsim.case import _package_imports
+    from refsim.registry import get_case
+    module = inspect.getmodule(type(get_case("dzhanibekov")))
+    assert "cases.rigid._bounds" in {m.__name__ for m in _package_imports(module)}
