@@ -157,13 +157,14 @@ def test_full_run_within_tolerance_at_reference_dt(name, variant, formulation, i
 
 
 def _verdict(case, p, formulation, integrator, row):
+    by_design = (case.name, integrator) in DIVERGES_BY_DESIGN or \
+        (case.name, row["variant"], integrator) in DIVERGES_BY_DESIGN
     if row["status"] == "diverged":
         if formulation == "penalty" and integrator in NEVER_STABLE:
             return None
-        if (case.name, integrator) in DIVERGES_BY_DESIGN or \
-                (case.name, row["variant"], integrator) in DIVERGES_BY_DESIGN:
-            return None
-        return f"diverged: {row['reason']}"
+        return None if by_design else f"diverged: {row['reason']}"
+    if row["status"] == "failed" and by_design and "Newton did not converge" in row["reason"]:
+        return None  # the orbit collapse below: the solver gives up, bounded (`failed`)
     if row["status"] != "ok":
         return f"{row['status']}: {row['reason']}"
     if formulation in AS_PRINTED:
