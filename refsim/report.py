@@ -150,8 +150,11 @@ def _header(manifest, table):
                             "stepping and observation)."))
     blocks.append(("p", "Run time below is the time stepping the whole simulated interval "
                         "(timing pass: fresh models, nothing observed, min of repeats; setup "
-                        "and compilation apart). Error is the case's compared norm at every "
-                        "sample against its reference; '!' marks a row above its tolerance."))
+                        "and compilation apart; a long run timed over its first `timed_steps` "
+                        "steps and scaled). Error is the case's compared norm at every sample "
+                        "against its reference. Each row's status gives its two verdicts: "
+                        "consistent or INCONSISTENT ! with the method it names (its bound and "
+                        "reason in tol_reason), and whether it reaches the case's target."))
     return blocks
 
 

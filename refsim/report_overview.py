@@ -120,7 +120,7 @@ LEGEND = ("Each cell answers two questions. *Target*: does any configuration of 
           "method must meet there (the exact discrete solution where the case has one), the "
           "state at t = 0 exact, the fitted order not below the method's? `consistent`, "
           "`inconsistent` (with the first reason), `unresolved` (the method's bound is not "
-          "below the motion at that dt: no verdict), `no method reference` (the engine's "
+          "below half the motion at that dt: no verdict), `no method reference` (the engine's "
           "own scheme: only the target question is answered). In the heatmap the colour is "
           "log10(best error / target) (green: below the target) and the word the target "
           "answer; the second line counts the inconsistent rows.")
