@@ -211,7 +211,8 @@ def render(summaries, alarms: pd.DataFrame, seconds: float, rows: int) -> str:
     lines.append(f"control false alarms (inconsistent, diverged or failed): {len(alarms)}")
     for _, r in alarms.iterrows():
         why = r["consistency_reason"] if r["status"] == "ok" else r["reason"]
-        lines.append(f"  {r['case']}/{r['variant']} {r['integrator']} dt={r['dt']:.3g} "
+        form = f":{r['engine_variant']}" if r["engine_variant"] else ""
+        lines.append(f"  {r['case']}/{r['variant']}{form} {r['integrator']} dt={r['dt']:.3g} "
                      f"{r['status']}: {str(why)[:140]}")
     lines.append(f"{rows} rows in {seconds:.0f} s")
     return "\n".join(lines)

@@ -179,7 +179,8 @@ def map_state(sim, fn, velocity_only: bool, defect: str) -> None:
 def as_float32(value):
     """The value rounded to float32 (kept as float64): arrays of floats and plain floats."""
     if isinstance(value, np.ndarray) and value.dtype == np.float64:
-        return value.astype(np.float32).astype(np.float64)
+        with np.errstate(over="ignore"):  # a diverging state overflows: it is judged, not run
+            return value.astype(np.float32).astype(np.float64)
     if isinstance(value, float):
         return float(np.float32(value))
     return value
