@@ -159,9 +159,10 @@ def _verdicts(case, p, job, row) -> dict:
     out.update(judge(row[column], bound, why, case.motion_scale(p), initial,
                      case.error_floor(p)))
     declared = declared_reason(row["declared_order"], method["order"])
-    if declared is not None and out["consistency"] != UNRESOLVED:
-        out.update(consistency=INCONSISTENT, consistency_reason="; ".join(
-            r for r in (out["consistency_reason"], declared) if r))
+    if declared is not None:  # its own word, whatever the bound: not the method it names
+        earlier = "" if out["consistency"] == UNRESOLVED else out["consistency_reason"]
+        out.update(consistency=INCONSISTENT,
+                   consistency_reason="; ".join(r for r in (earlier, declared) if r))
     return out
 
 

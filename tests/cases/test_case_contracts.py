@@ -31,6 +31,20 @@ ORDER_MEANINGFUL = {"free_fall": True, "stiff_spring": True, "pendulum": True,
 # formulations that run a slide's formula as printed where it is wrong (the harness must fail
 # them): the collision seed's impulse, the sprinkler's `velocity == g*dt`
 AS_PRINTED = {"hard_sphere_seed", "as_printed"}
+# the slides' orientation update as printed, R' = R + [phi]x R: a first-order retraction, so
+# every method above first order run on it is not the method it names (the engine declares
+# order 1 for it): such rows must come out inconsistent; first-order rows are judged as usual
+# or inconsistent by the printed matrix's stretch
+PRINTED_RETRACTION = {"matrix_printed"}
+# known gaps of a bound, measured (not in the default matrix; run by name)
+BOUND_GAPS = {
+    ("dzhanibekov", "near_separatrix", "quat_normalised", "implicit_midpoint"):
+        "err 4.4e-4 above the bound 2.7e-4: the chart's turning error is amplified ~300x near "
+        "the separatrix, which the bound does not model",
+    ("dzhanibekov", "near_separatrix", "matrix_polar", "implicit_midpoint"):
+        "err 1.8e-3 above the bound 2.7e-4: the chart's turning error is amplified ~300x near "
+        "the separatrix, which the bound does not model",
+}
 FIGURE_KEYS = {"kind", "title", "x", "y", "x_shift_column", "x_label", "y_label", "data"}
 
 
@@ -134,8 +148,10 @@ def _full_runs():
         slow = formulation in ("kkt", "penalty") or variant == "box_1000"
         for integrator in ENGINE.offered_integrators(scene):
             if ENGINE.supports(scene, integrator) is None:
-                yield pytest.param(name, variant, formulation, integrator,
-                                   marks=[pytest.mark.slow] if slow else [],
+                gap = BOUND_GAPS.get((name, variant, formulation, integrator))
+                marks = ([pytest.mark.slow] if slow else []) + (
+                    [pytest.mark.xfail(strict=True, reason=gap)] if gap else [])
+                yield pytest.param(name, variant, formulation, integrator, marks=marks,
                                    id=f"{name}-{variant}-{formulation}-{integrator}")
 
 
@@ -167,6 +183,11 @@ def _verdict(case, p, formulation, integrator, row):
         return None  # the orbit collapse below: the solver gives up, bounded (`failed`)
     if row["status"] != "ok":
         return f"{row['status']}: {row['reason']}"
+    if formulation in PRINTED_RETRACTION:
+        if row["nominal_order"] >= 2:
+            return None if row["consistency"] == "inconsistent" else (
+                f"the printed retraction passed as order {row['nominal_order']:g}")
+        return None  # first order: the retraction's error is of the method's order
     if formulation in AS_PRINTED:
         # the slide's flawed formula: the harness must catch it, not pass it
         return "the seed formula passed its tolerance" if (row["consistency"] == "consistent") else None
