@@ -141,7 +141,8 @@ class StiffSpring(Case):
         (e^(-g h) - 1), at most |v| (g h)^2 / 2 + g h^2 |a|; each velocity change moves every
         later u by at most its / w0 (u^2 + (u'/w0)^2 never grows), so over the run at most
         (g^2 h / 2 TV(u) + g h TV(u')) / w0, TV the closed form's total variations."""
-        method = str(((settings or {}).get("springs") or {}).get("damping_method", ""))
+        springs = (settings or {}).get("springs")  # a dict, or an engine's one-line text
+        method = str(springs.get("damping_method", "")) if isinstance(springs, dict) else ""
         if p["zeta"] == 0 or "exp" not in method:
             return 0.0, ""
         w0 = self.omega(p)
