@@ -271,3 +271,32 @@ def test_source_hash_covers_the_case_packages_helper_modules():
     from refsim.registry import get_case
     module = inspect.getmodule(type(get_case("dzhanibekov")))
     assert "cases.rigid._bounds" in {m.__name__ for m in _package_imports(module)}
+
+
+class _LaunchSim:
+    """One call costs a fixed 2 ms launch, each step 1 us (a kernel launch per call)."""
+
+    compile_s = 0.0
+
+    def step(self, n):
+        import time
+        time.sleep(2e-3 + 1e-6 * n)
+
+    def close(self):
+        pass
+
+
+class _LaunchEngine:
+    def build(self, scene, dt, integrator, variant):
+        return _LaunchSim()
+
+
+def test_timing_stretch_is_not_sized_by_the_observation_calls():
+    """The accuracy pass's per-observation calls made it look long (N' = 10 of 1000 steps):
+    one probe call shows the whole run fits the timing budget, so the whole run is timed."""
+    from refsim.job import _timing_pass
+    job = Job("free_fall", "default", "x", "", "rk4", 1e-3)
+    row = _timing_pass(_LaunchEngine(), None, job, steps=1000, timed=10, repeats=1,
+                       budget_s=0.01)
+    assert row["timed_steps"] == 1000 and row["timing"] == "fresh models, min of 1"
+    assert row["us_per_step"] == pytest.approx(row["step_s"] / 1000 * 1e6)
