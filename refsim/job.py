@@ -28,6 +28,7 @@ STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
 # 0.9 us per step inside one launch, measured on newtons_cradle).
 LONG_RUN_S = 0.2
 BUDGET_S = 0.2
+PROBES = 4  # probe calls at most to size N' (each grows it by LONG_RUN_S / its time)
 
 
 @dataclass(frozen=True)
@@ -306,16 +307,19 @@ def _timing_pass(engine, scene, job, steps, timed, repeats, budget_s):
     its first `timed` steps. The accuracy pass just ran the same code on the same scene and
     step: it is the warm-up (compilation, caches, lazy imports)."""
     times, setups, spent = [], [], 0.0
-    if timed < steps:  # N' came from the accuracy pass, whose per-observation calls (a kernel
-        # launch each) may dwarf the stepping: one probe of N' steps in one call, and N' grown
-        # to what fits LONG_RUN_S by that measure (the whole run when it fits)
+    for _ in range(PROBES):  # N' came from the accuracy pass, whose per-observation calls (a
+        # kernel launch each) may dwarf the stepping: probes of N' steps in one call, N' grown
+        # to what fits LONG_RUN_S by each measure (the whole run when it fits)
+        if timed >= steps:
+            break
         sim, _ = _build(engine, scene, job)
         t0 = time.perf_counter()
         sim.step(timed)
         probe = time.perf_counter() - t0
         sim.close()
-        if probe < LONG_RUN_S / 4:
-            timed = min(steps, int(timed * LONG_RUN_S / max(probe, 1e-9)))
+        if probe >= LONG_RUN_S / 4:
+            break
+        timed = min(steps, int(timed * LONG_RUN_S / max(probe, 1e-9)))
     while len(times) < max(1, repeats) and (not times or spent < budget_s):
         sim, setup_s = _build(engine, scene, job)
         t0 = time.perf_counter()
