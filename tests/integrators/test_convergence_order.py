@@ -102,8 +102,9 @@ def test_adaptive_error_is_proportional_to_rtol():
 def test_pendulum_rk4_order_from_the_case_sweep(variant, expected):
     """The case's own sweep (timed dts + order_dts, 50..1 ms) as the runner fits it: RK4 on
     the default pendulum measures 4 over a decade above the floor; on the large amplitude its
-    errors climb at slopes 5..6 above the floor (the dt^4 term cancelled by the dt^5 one), so
-    the fit says pre-asymptotic instead of the 6.33 it used to report."""
+    errors climb at slopes 5..6 above the floor (the dt^4 term cancelled by the dt^5 one): the
+    fit is reported as fitted (5.17 +- 0.07 over 4..50 ms, measured), never relabelled, and
+    an order above the method's leaves the rows consistent."""
     import pandas as pd
 
     from refsim.registry import get_case
@@ -118,7 +119,9 @@ def test_pendulum_rk4_order_from_the_case_sweep(variant, expected):
                                       for r in rows]))
     fit = table.iloc[0]
     if expected is None:
-        assert np.isnan(fit["order"]) and fit["order_note"] == "pre-asymptotic", fit
+        assert fit["order"] > 4.2 and fit["order_note"] == "", fit
+        assert fit["order_dt_hi"] / fit["order_dt_lo"] >= 10
+        assert set(table["consistency"]) == {"consistent"}
     else:
         assert abs(fit["order"] - expected) < 0.2 and fit["order_points"] >= 4, fit
         assert 0 < fit["order_stderr"] < 0.1

@@ -87,15 +87,26 @@ def _dense_formula(x, masses, G, softening):
 
 
 @pytest.mark.parametrize("shape", [(2, 3), (4, 2, 3), (3, 3), (2, 5, 3), (32, 3)])
-def test_few_body_paths_are_the_dense_formula_bit_for_bit(shape):
-    """n = 2 (Python floats, or numpy for a batch) and n <= DENSE_MAX_BODIES round exactly
-    as the dense formula: the default run's orbits are unchanged to the last bit."""
+def test_few_body_paths_are_the_dense_formula_to_round_off(shape):
+    """n = 2 (Python floats, or numpy for a batch) and n <= DENSE_MAX_BODIES agree with the
+    dense formula to round-off. Not bit for bit: they are not the same operations in the same
+    order, and numpy's SIMD loops round differently per CPU (a 1-ulp difference measured on
+    an AVX-512 Xeon, none on an EPYC). Each term G m_j d / s^3 rounds to <= 12 eps of itself
+    (see the blocked path's test below) in either formula and the sum of n - 1 terms adds
+    (n - 1) eps of sum |term|: |a - a_dense| <= 2 (n + 12) eps G sum_j m_j |d| / s^3."""
+    eps = np.finfo(float).eps
     for trial in range(50):
         x = RNG.normal(size=shape) * RNG.uniform(0.01, 100.0)
         masses = RNG.uniform(0.1, 3.0, shape[-2])
         G, softening = (1.0, 0.0) if trial % 2 else (6.674e-11, 0.1)
-        np.testing.assert_array_equal(pair_accelerations(x, masses, G, softening),
-                                      _dense_formula(x, masses, G, softening))
+        got = pair_accelerations(x, masses, G, softening)
+        d = x[..., None, :, :] - x[..., :, None, :]
+        r2 = np.einsum("...k,...k->...", d, d) + softening ** 2
+        n = shape[-2]
+        r2[..., np.arange(n), np.arange(n)] = np.inf
+        scale = G * np.einsum("...ij,...ijk->...ik", r2 ** -1.5 * masses, np.abs(d))
+        bound = 2 * (n + 12) * eps * scale
+        assert np.all(np.abs(got - _dense_formula(x, masses, G, softening)) <= bound)
 
 
 @pytest.mark.parametrize("offset, softening", [(0.0, 0.0), (1e3, 0.05)])

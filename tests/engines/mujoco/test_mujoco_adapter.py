@@ -19,6 +19,7 @@ from adapters.mujoco_engine.methods import METHODS
 from adapters.mujoco_engine.point_masses import POINT_INERTIA
 from refsim.registry import get_case
 from refsim.metrics import bisect_limit, convergence_order
+from refsim.integrators import method_info
 from refsim.runner import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring
 
@@ -203,11 +204,23 @@ def test_reference_dt_runs_are_ok_and_within_tolerance(name, integrator):
         row = run_job(Job(name, variant, "mujoco", "", integrator, case.reference_dt(p)),
                       repeats=1, budget_s=0.0)
         assert row["status"] == "ok", (variant, row["reason"])
-        # a bound not below the motion gives no verdict (unresolved): then the error must still
-        # stay under the motion scale, as it had to when such rows counted as within tolerance
-        assert (row["consistency"] == "consistent") or ((row["consistency"] == "unresolved") and row["err_max"] <= row["tolerance"]), \
-            (variant, row["err_max"], row["tolerance"])
         assert row["us_per_step"] > 0 and row["compile_s"] > 0
+        if method_info(integrator) is None:  # MuJoCo's own scheme: only the target question
+            assert row["consistency"] == "no method reference"
+            if integrator in ("implicit", "implicitfast"):
+                # semi-implicit Euler with velocity-dependent forces implicit: symplectic Euler
+                # exactly where nothing depends on velocity (measured 1.00 x its exact discrete
+                # error), less error with damping (0.23-0.76 x): never above its bound
+                settings = {**json.loads(row["settings"]),
+                            "integrator": method_info("symplectic_euler")}
+                bound, _ = case.tolerance(p, "symplectic_euler", 1.0, row["dt"], "", settings)
+                assert row["err_max"] <= bound, (variant, row["err_max"], bound)
+            continue
+        # a bound not below half the motion gives no verdict (unresolved): then the error
+        # must still stay under that bound
+        assert (row["consistency"] == "consistent") or (
+            row["consistency"] == "unresolved" and row["err_max"] <= row["tolerance"]), \
+            (variant, row["err_max"], row["tolerance"])
 
 
 # ---------------------------------------------------------------------------------------------
