@@ -101,7 +101,7 @@ def scoreboard_table(board: pd.DataFrame) -> pd.DataFrame:
     """The scoreboard as the report prints it: the target question, then the method one."""
     return pd.DataFrame({
         "case / variant": board["case"], "engine": board["engine"],
-        "target": [f"{v} ({t:.2g})" if math.isfinite(t) else v
+        "target": [f"{v} ({t:.2g})" if math.isfinite(t) and v in TARGET_WORDS else v
                    for v, t in zip(board["verdict"], board["target"])],
         "cheapest reaching the target": board["cheapest"].replace("", "-"),
         "run time (s)": [f"{t:.3g}" if math.isfinite(t) else "-" for t in board["run_time"]],
