@@ -149,6 +149,16 @@ class Case:
         """Errors above this are pre-asymptotic (or unstable): left out of order fits."""
         return 0.1 * self.motion_scale(p)
 
+    def energy_period(self, p, settings=None) -> float | None:
+        """None (the default): the case claims no energy behaviour. A period P (s): the exact
+        flow conserves the case's `energy` (no dissipation, no external work, no contacts),
+        and in the formulation `settings` declares a symplectic method stays symplectic on it
+        (a separable Hamiltonian in canonical coordinates), so a symplectic method's energy
+        error stays bounded, oscillating with a period of at most P (the motion's period:
+        the energy error of a 1-DOF orbit is a function of its phase). The verdicts then
+        read the energy's behaviour (refsim.verdicts.energy_reason)."""
+        return None
+
     def sample_dt(self, p) -> float:
         return self.t_end(p) / self.samples
 

@@ -16,8 +16,8 @@ from refsim.engine import IntegratorInfo, jsonable
 from refsim.integrators import method_info
 from refsim.metrics import energy_drift, error_norms
 from refsim.registry import get_case, get_engine
-from refsim.verdicts import (INCONSISTENT, NO_REFERENCE, UNRESOLVED, declared_reason, judge,
-                             reaches)
+from refsim.verdicts import (INCONSISTENT, NO_REFERENCE, UNRESOLVED, declared_reason,
+                             energy_reason, judge, reaches)
 
 STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
 # The timing pass steps fresh models with nothing observed, repeating until its runs have taken
@@ -133,7 +133,7 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
         row["trajectory"] = stacked
     if math.isclose(job.dt, case.reference_dt(p), rel_tol=1e-9):
         row["series"] = series(case, p, stacked)
-    row.update(_verdicts(case, p, job, row))
+    row.update(_verdicts(case, p, job, row, stacked))
     if repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
         timed = steps if stepping_s <= LONG_RUN_S else max(
             1, min(steps, int(steps * LONG_RUN_S / stepping_s)))
@@ -141,9 +141,10 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
                               budget_s))
 
 
-def _verdicts(case, p, job, row) -> dict:
+def _verdicts(case, p, job, row, stacked) -> dict:
     """reaches_target (the case's target) and consistency with the NAMED method (its bound from
-    the case for that method, whatever the engine declares; see refsim.verdicts)."""
+    the case for that method, whatever the engine declares; for a symplectic method on a
+    conservative scene, also its bounded energy; see refsim.verdicts)."""
     column = case.tolerance_column(p)
     target = case.target_error(p)
     out = {"target_error": target, "reaches_target": reaches(row[column], target)}
@@ -159,12 +160,26 @@ def _verdicts(case, p, job, row) -> dict:
     initial = row["err_initial"] if case.initial_state_is_reference else float("nan")
     out.update(judge(row[column], bound, why, case.motion_scale(p), initial,
                      case.error_floor(p)))
-    declared = declared_reason(row["declared_order"], method["order"])
-    if declared is not None:  # its own word, whatever the bound: not the method it names
-        earlier = "" if out["consistency"] == UNRESOLVED else out["consistency_reason"]
-        out.update(consistency=INCONSISTENT,
-                   consistency_reason="; ".join(r for r in (earlier, declared) if r))
+    # its own word, or its energy's behaviour, whatever the bound: not the method it names
+    for why in (declared_reason(row["declared_order"], method["order"]),
+                _energy_behaviour(case, p, method, settings, row, stacked)):
+        if why is not None:
+            earlier = "" if out["consistency"] == UNRESOLVED else out["consistency_reason"]
+            out.update(consistency=INCONSISTENT,
+                       consistency_reason="; ".join(r for r in (earlier, why) if r))
     return out
+
+
+def _energy_behaviour(case, p, method, settings, row, stacked) -> str | None:
+    """energy_reason for a symplectic method on a case whose flow conserves energy."""
+    if not method["symplectic"]:
+        return None
+    period = case.energy_period(p, settings)
+    energy = None if period is None else case.energy(p, stacked)
+    if energy is None:
+        return None
+    e_scale = max(abs(float(energy[0])), case.energy_scale(p))
+    return energy_reason(stacked["t"], energy, e_scale, period, row["steps"])
 
 
 def _build(engine, scene, job):

@@ -11,7 +11,9 @@ RK4, velocity Verlet as velocity Verlet — at that dt. One of
   where the case has one, else its error constant times the case's sensitivity, one safety
   factor <= 3, plus round-off), and the state at t = 0 is the reference's to the error floor;
   across the dt sweep the fitted order (where the case declares orders meaningful) is not
-  below the method's nominal order by more than ORDER_SLACK (`runner.with_orders`);
+  below the method's nominal order by more than ORDER_SLACK (`runner.with_orders`); for a
+  symplectic method on a scene whose exact flow conserves energy (`Case.energy_period`),
+  the energy error stays bounded (`energy_reason`: read even where the bound is unresolved);
 - INCONSISTENT: one of those fails; `consistency_reason` says which, with the numbers;
 - UNRESOLVED: the method's bound at this dt is not below half the motion itself (an answer
   wrong by half the motion would meet it): no verdict at this dt;
@@ -95,6 +97,38 @@ def declared_reason(declared: float, nominal: float) -> str | None:
     if math.isfinite(declared) and math.isfinite(nominal) and declared < nominal - ORDER_SLACK:
         return (f"the engine declares order {declared:g} for it, the method's order is "
                 f"{nominal:g}")
+    return None
+
+
+# a symplectic method's energy error on a conservative scene stays bounded: its largest value
+# over the run's last quarter may exceed the first quarter's by at most this factor (each
+# quarter spans at least one period of the oscillating energy error, whose maxima then agree
+# up to the sampling of ~400 observations, <1 %; a steady drift D over the run gives 4, so
+# any drift above twice the oscillation's amplitude is caught)
+ENERGY_GROWTH = 2.0
+# round-off: one rounding of the state per step moves the energy by a few eps of its scale
+ENERGY_ROUNDOFF_EPS = 8.0
+
+
+def energy_reason(t, energy, e_scale: float, period: float, steps: int) -> str | None:
+    """Why the energy's behaviour disqualifies a row of a symplectic method on a scene whose
+    exact flow conserves energy (`Case.energy_period`), None when it does not or cannot be
+    judged (a quarter of the run shorter than the energy error's period P): the energy error's
+    largest value over the last quarter of the run is above ENERGY_GROWTH times the first
+    quarter's plus round-off (ENERGY_ROUNDOFF_EPS eps per step of the energy scale). A bounded
+    oscillation passes whatever its size; hidden damping or a non-symplectic stepper drifts."""
+    t, energy = np.asarray(t, float), np.asarray(energy, float)
+    span = t[-1] - t[0]
+    if not (len(t) > 8 and period > 0 and span / 4 >= period and np.isfinite(energy).all()):
+        return None
+    err = np.abs(energy - energy[0])
+    first = float(err[t <= t[0] + span / 4].max())
+    last = float(err[t >= t[-1] - span / 4].max())
+    roundoff = ENERGY_ROUNDOFF_EPS * np.finfo(float).eps * steps * e_scale
+    if last > ENERGY_GROWTH * first + roundoff:
+        return (f"energy error grew from {first:.3g} (first quarter of the run) to {last:.3g} "
+                f"(last quarter): a symplectic method's energy error stays bounded on this "
+                f"conservative scene (period {period:.3g} s)")
     return None
 
 

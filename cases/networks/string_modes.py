@@ -204,6 +204,11 @@ class StringModes(Case):
         return network_potential(self.scene(p).networks[0], self.rest_positions(p),
                                  (0.0, 0.0, 0.0))
 
+    def energy_period(self, p, settings=None):
+        """The undamped network conserves its kinetic + spring energy (separable): the
+        mode's period (judged where a quarter of the run spans it: the `long` variant)."""
+        return self.period(p)
+
     def energy_scale(self, p):
         """The mode's energy E0 - E_flat = 1/2 m w^2 A^2 sum phi^2 (J)."""
         _, _, phi = self.grid(p)

@@ -218,6 +218,12 @@ class LJDimer(Case):
         kinetic = 0.5 * p["mass"] * np.sum(v * v, axis=(1, 2))
         return kinetic + potential(r, p["epsilon"], p["sigma"])
 
+    def energy_period(self, p, settings=None):
+        """Two atoms in open space: H = |p|^2 / (2 m) + U(r) is separable and conserved; the
+        radial oscillation's period (quadrature). Judged where a quarter of the run spans it
+        (the `long` variant)."""
+        return exact_period(p["amplitude"], p["epsilon"], p["sigma"], p["mass"])
+
     def energy_scale(self, p):
         """The oscillation energy 1/2 k A^2."""
         return 0.5 * K_REDUCED * p["epsilon"] / p["sigma"] ** 2 * p["amplitude"] ** 2

@@ -102,6 +102,11 @@ class StiffSpring(Case):
     def _energy(self, p, u, v):
         return 0.5 * p["mass"] * np.sum(v * v, axis=-1) + 0.5 * p["stiffness"] * u ** 2
 
+    def energy_period(self, p, settings=None):
+        """Undamped, the spring conserves m u'^2/2 + k u^2/2 in any formulation (one degree of
+        freedom, separable): the period 2 pi / w0 (the energy error's is half of it)."""
+        return 2 * np.pi / self.omega(p) if p["zeta"] == 0 else None
+
     def energy_scale(self, p):
         return 0.5 * p["stiffness"] * p["amplitude"] ** 2
 

@@ -202,3 +202,17 @@ def test_verdicts_catch_a_quick_subset():
         assert driver.matters(d, c), (defect, case)
         assert driver.caught([d], [c]), (defect, case, d["consistency_reason"])
         assert not driver.caught([c], [c]), (defect, case)
+
+
+def test_energy_behaviour_catches_damping_where_the_error_bound_does_not():
+    """pendulum, generalized coordinates, velocity Verlet at dt = 0.05 s (200 steps): the
+    1e-4 per step velocity damping keeps the error inside the method's bound, but the energy
+    drifts, which a symplectic method's energy never does; the control's stays bounded."""
+    job = Job("pendulum", "default", "", "generalized", "velocity_verlet", 0.05)
+    table = driver.run_jobs([replace(job, engine=DEFECTS["velocity_damping"].engine),
+                             replace(job, engine="planted_control")], workers=1)
+    d, c = table.to_dict("records")
+    assert d["err_max"] <= d["tolerance"]  # the error bound alone lets it through
+    assert d["consistency"] == "inconsistent" and "energy error grew" in \
+        d["consistency_reason"]
+    assert c["consistency"] == "consistent", c["consistency_reason"]

@@ -300,3 +300,18 @@ def test_timing_stretch_is_not_sized_by_the_observation_calls():
                        budget_s=0.01)
     assert row["timed_steps"] == 1000 and row["timing"] == "fresh models, min of 1"
     assert row["us_per_step"] == pytest.approx(row["step_s"] / 1000 * 1e6)
+
+
+def test_energy_behaviour_reads_drift_not_size():
+    """A bounded oscillating energy error passes whatever its size; a drift of twice its
+    amplitude over the run does not; a run shorter than four periods is not judged."""
+    from refsim.verdicts import energy_reason
+    t = np.linspace(0.0, 10.0, 401)
+    bounded = 1.0 + 0.3 * np.sin(2 * np.pi * t) ** 2  # period 0.5 s, a large error
+    assert energy_reason(t, bounded, 1.0, 1.0, 1000) is None
+    drifting = bounded - 0.07 * t  # 0.7 over the run, about twice the oscillation's 0.3
+    why = energy_reason(t, drifting, 1.0, 1.0, 1000)
+    assert why is not None and "first quarter" in why
+    assert energy_reason(t, drifting, 1.0, 3.0, 1000) is None  # a quarter < the period
+    # round-off: eps-sized drifts over many steps are not judged as a drift
+    assert energy_reason(t, 1.0 + 1e-13 * t, 1.0, 1.0, 10**6) is None
