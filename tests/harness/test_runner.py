@@ -317,3 +317,12 @@ def test_energy_behaviour_reads_drift_not_size():
     assert energy_reason(t, drifting, 1.0, 3.0, 1000) is None  # a quarter < the period
     # round-off: eps-sized drifts over many steps are not judged as a drift
     assert energy_reason(t, 1.0 + 1e-13 * t, 1.0, 1.0, 10**6) is None
+
+
+def test_energy_behaviour_is_not_read_from_aliased_samples():
+    """4 observations per period (400 samples of a 100-period run) alias the oscillation's
+    maxima: not judged, whatever the windows' maxima say."""
+    from refsim.verdicts import energy_reason
+    t = np.linspace(0.0, 100.0, 401)
+    aliased = 1.0 + 0.3 * np.sin(2 * np.pi * 1.01 * t) ** 2
+    assert energy_reason(t, aliased - 0.01 * t, 1.0, 1.0, 10**4) is None
