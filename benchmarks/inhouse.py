@@ -15,6 +15,8 @@ import time
 
 import numpy as np
 
+from refsim.integrators.spec import spec_name
+
 TARGET = 1e-8
 DURATION, SAMPLE = 10.0, 0.01
 W0 = np.sqrt(9.81)
@@ -164,7 +166,7 @@ def target_figures(rows, scipy_row, repeats) -> list[dict]:
     n = len(_samples()) - 1
     figures = []
     for label, err, t, spec, substeps in rows:
-        adaptive = spec.partition(":")[0].endswith("_adaptive")
+        adaptive = spec_name(spec).endswith("_adaptive")
         figures.append(_target_figure(
             label, err, t, "refsim", spec, repeats, vs_solve_ivp=t / scipy_row[2],
             steps=0 if adaptive else n * substeps,

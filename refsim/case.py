@@ -33,6 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from refsim.integrators.spec import IntegratorSpec
+
 
 @dataclass(frozen=True)
 class Param:
@@ -243,10 +245,11 @@ def _package_imports(module) -> list:
 
 def adaptive_rtol(integrator: str) -> float | None:
     """rtol of an adaptive integrator spec ('dopri5_adaptive:1e-9'), None for fixed steps."""
-    name, _, arg = integrator.partition(":")
-    if not name.endswith("_adaptive"):
+    parsed = IntegratorSpec.parse(integrator)
+    if not parsed.name.endswith("_adaptive"):
         return None
-    return float(arg) if arg else 1e-9
+    rtol = parsed.number("rtol > 0")
+    return 1e-9 if rtol is None else rtol
 
 
 ADAPTIVE_REASON = ("adaptive: local error held to rtol per step; the global error after omega t "

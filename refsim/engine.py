@@ -37,6 +37,8 @@ import pkgutil
 from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Callable
 
+from refsim.integrators.spec import spec_name
+
 
 class EngineFailure(RuntimeError):
     """An engine's own report of a breakdown (solver failure, silent reset, full buffer)."""
@@ -255,7 +257,7 @@ class Engine:
         if scene.dim not in self.dims:
             return f"{self.name} is {'/'.join(map(str, self.dims))}D only"
         offered = self.offered_integrators(scene)
-        if integrator is not None and integrator.partition(":")[0] not in offered:
+        if integrator is not None and spec_name(integrator) not in offered:
             return f"{self.name} offers no integrator {integrator!r}"
         if group is not None:
             return group.supports(self, scene, integrator) if group.supports else None

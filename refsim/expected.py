@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsim.integrators.spec import IntegratorSpec
 from refsim.integrators.tableaux import DOPRI5, EULER, HEUN, MIDPOINT, RK4, rk2_tableau
 
 _TABLEAUX = {"explicit_euler": EULER, "midpoint": MIDPOINT, "heun": HEUN, "rk4": RK4,
@@ -35,8 +36,8 @@ _OTHERS = ("symplectic_euler", "symplectic_euler_dk", "velocity_verlet", "storme
 
 
 def _split(spec: str) -> tuple[str, str]:
-    name, _, arg = str(spec).partition(":")
-    return name, arg
+    parsed = IntegratorSpec.parse(spec)
+    return parsed.name, parsed.arg
 
 
 def has_discrete_solution(spec: str) -> bool:

@@ -17,6 +17,7 @@ import pandas as pd
 from refsim.registry import engine_names, get_engine
 from refsim.registry import case_names, get_case
 from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
+from refsim.integrators.spec import IntegratorSpec, spec_name
 from refsim.job import (BUDGET_S, LONG_RUN_S, STATUSES, Job, run_job,  # noqa: F401
                         series)
 from refsim.case import adaptive_rtol
@@ -62,8 +63,9 @@ def check_integrators(integrators, engines) -> None:
     offered = {i for e in engines for i in e.integrators}
     offered |= {i for e in engines for g in e.model_groups() for i in g.integrators or ()}
     for spec in integrators:
-        name, colon, arg = spec.partition(":")
-        if colon and not arg:
+        parsed = IntegratorSpec.parse(spec)
+        name = parsed.name
+        if parsed.colon and not parsed.arg:
             hint = PARAMETRISED.get(name, "this integrator takes none")
             raise ValueError(f"integrator {spec!r}: a parameter must follow ':' ({hint}), "
                              f"or leave out the ':' for the default")
@@ -131,7 +133,7 @@ def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep, u
     if not engine.available() or engine.supports(scene) is not None:
         return [Job(cname, variant, engine.name, "", "", float("nan"))]
     offered = engine.offered_integrators(scene)
-    specs = [i for i in (integrators or offered) if i.partition(":")[0]
+    specs = [i for i in (integrators or offered) if spec_name(i)
              in offered and engine.supports(scene, i) is None]
     if not specs:  # none of the asked integrators runs this scene: one row says why
         spec = (integrators or offered)[0]

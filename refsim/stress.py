@@ -52,6 +52,7 @@ from refsim import store
 from refsim.stress_report import atomic_csv, print_report
 from refsim.stress_store import store_run
 from refsim.integrators import get_integrator
+from refsim.integrators.spec import spec_name
 from refsim.stress_search import ENERGY_FACTOR, Y_MAX, Y_MIN, Criterion, find_limit, finite_time, \
     refsim_equivalent
 from refsim.stress_spec import Probe
@@ -183,7 +184,7 @@ def _integrators(names, engines):
     offered += [i for e in engines for g in get_engine(e).model_groups()
                 for i in g.integrators or () if i not in offered]
     for name in names:
-        if name.partition(":")[0] not in offered:
+        if spec_name(name) not in offered:
             raise ValueError(f"--integrator must be one offered by {engines}: {offered}; "
                              f"got {name!r}")
         eq = refsim_equivalent(None, name)
@@ -258,7 +259,7 @@ def limit_jobs(opts, spring) -> tuple[list, list]:
         forms = engine.formulations(spring.scene) if spring.spec.formulations else ("",)
         offered = engine.offered_integrators(spring.scene)
         for integ in opts["integrators"] or offered:
-            if integ.partition(":")[0] not in offered:
+            if spec_name(integ) not in offered:
                 continue
             eq = refsim_equivalent(engine, integ)
             why = "adaptive" if eq and get_integrator(eq).adaptive else \

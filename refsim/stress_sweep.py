@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pandas as pd
 
+from refsim.integrators.spec import spec_name
 from refsim.stress_search import ENERGY_FACTOR
 from refsim.stress_spec import Probe as Spring
 
@@ -37,7 +38,7 @@ LEGEND = {
 def sweep_integrators(engine, requested=None):
     """Default (symplectic Euler where offered, else the first) and the named ones offered."""
     if requested:
-        return [i for i in requested if i.partition(":")[0] in engine.integrators]
+        return [i for i in requested if spec_name(i) in engine.integrators]
     default = "symplectic_euler" if "symplectic_euler" in engine.integrators \
         else engine.integrators[0]
     return [default] + [i for i in SWEEP_NAMED if i in engine.integrators and i != default]

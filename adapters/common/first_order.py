@@ -4,6 +4,7 @@ reasons a stepper or a scene is refused, the scene's system and its description.
 from __future__ import annotations
 
 from refsim.integrators import INTEGRATORS
+from refsim.integrators.spec import spec_name
 from refsim.models.advection import AffineField
 from refsim.models.surface_sampling import SphereSampling
 from refsim.scene.surface_sampling import surface_sampling_of
@@ -19,7 +20,7 @@ OFFERED = FIELD_INTEGRATORS + SECOND_ORDER_ONLY  # the second-order ones answer 
 
 def first_order_reason(integrator: str, offered) -> str | None:
     """Why `integrator` does not run a first-order scene (None when it does)."""
-    name = (integrator or "").partition(":")[0]
+    name = spec_name(integrator)
     if integrator is None or integrator in offered:
         return None
     if name in FIELD_INTEGRATORS:  # a first-order stepper not offered for this field

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.integrators import INTEGRATORS
+from refsim.integrators.spec import spec_name
 from refsim.models.grid_pde import MODELS, coefficient_reason
 
 # heat equation u' = D lap u (first order): FTCS is explicit Euler; RK tableaux on the method
@@ -52,7 +53,7 @@ def offered_for(grid) -> tuple:
 def integrator_reason(grid, integrator: str | None) -> str | None:
     if integrator is None:
         return None
-    name = integrator.partition(":")[0]
+    name = spec_name(integrator)
     offered = offered_for(grid)
     if name in offered and name == integrator:
         return None

@@ -18,6 +18,7 @@ import numpy as np
 from refsim.case import Case
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.sparse_linear import first_order_implicit
+from refsim.integrators.spec import spec_name
 from refsim.models.grid_laplacian import mode_eigenvalue
 from refsim.scene import Scene
 from refsim.scene.grids import Grid
@@ -124,7 +125,7 @@ class ModeFieldCase(Case):
 
 def heat_stepper(integrator: str):
     """The first-order stepper of that name (its `stability(z)` is R(z))."""
-    name = integrator.partition(":")[0]
+    name = spec_name(integrator)
     if name in ("explicit_euler", "implicit_euler", "crank_nicolson"):
         return first_order_implicit(name)
     return get_first_order(integrator)
@@ -132,7 +133,7 @@ def heat_stepper(integrator: str):
 
 def stages(integrator: str) -> int:
     """Stencil evaluations per step (for the round-off bound)."""
-    name = integrator.partition(":")[0]
+    name = spec_name(integrator)
     return {"explicit_euler": 1, "midpoint": 2, "heun": 2, "rk4": 4, "implicit_euler": 1,
             "crank_nicolson": 2}.get(name, 4)
 

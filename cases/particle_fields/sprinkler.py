@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.case import EPS, Case, Param, roundoff_tolerance
+from refsim.integrators.spec import spec_name
 from refsim.models import emitter as em
 from refsim.scene import Scene
 from refsim.scene.emitter import Emitter
@@ -130,7 +131,7 @@ class SprinklerCase(Case):
         roundoff += reference
         roundoff_reason += (f"; n counts a life's steps, S = (X + V lifetime / 2) / 2 (see "
                             f"state_scale); plus the reference's rounding {reference:.3g} m")
-        if integrator.partition(":")[0] in FIRST_ORDER:
+        if spec_name(integrator) in FIRST_ORDER:
             lag = 0.5 * p["g"] * dt * p["lifetime"]
             return lag + roundoff, ("first order, exact discrete parabola: x_k lags or leads "
                                     "the parabola by exactly g h a / 2 at age a < lifetime, "

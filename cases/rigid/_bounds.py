@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.expected import discrete_solution, has_discrete_solution, maps, oscillator_rates
+from refsim.integrators.spec import spec_name
 
 KICK_METHODS = ("symplectic_euler", "symplectic_euler_dk", "velocity_verlet", "stormer_verlet",
                 "leapfrog")
@@ -39,7 +40,7 @@ PRINTED_REASON = ("; matrix_printed: R + h [w]_x R is explicit Euler on R' = [w]
 
 
 def method_name(spec: str) -> str:
-    return str(spec).partition(":")[0]
+    return spec_name(spec)
 
 
 def per_step_rates(spec: str, y: float) -> tuple[float, float]:

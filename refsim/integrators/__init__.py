@@ -16,6 +16,7 @@ from .base import Integrator, StepFailure, configuration_update
 from .explicit_rk import ExplicitRK
 from .implicit import BaraffWitkin, ImplicitEuler
 from .implicit_midpoint import ImplicitMidpoint
+from .spec import IntegratorSpec, spec_name
 from .symplectic import (
     Leapfrog,
     StormerVerlet,
@@ -75,18 +76,15 @@ PARAMETRISED = {"rk2": "alpha in (0, 1], default 2/3 (Ralston)",
 
 def get_integrator(spec: str) -> Integrator:
     """'rk4', 'rk2:0.5' (alpha), 'dopri5_adaptive:1e-8' (rtol)."""
-    name, _, arg = str(spec).partition(":")
+    parsed = IntegratorSpec.parse(spec)
+    name = parsed.name
     if name not in _FACTORIES:
         raise ValueError(f"integrator must be one of {list(_FACTORIES)}, got {spec!r}")
-    if not arg:
+    if not parsed.arg:
         return _FACTORIES[name]()
     if name not in PARAMETRISED:
         raise ValueError(f"integrator {name!r} takes no parameter, got {spec!r}")
-    try:
-        value = float(arg)
-    except ValueError:
-        raise ValueError(f"integrator {name} parameter: {PARAMETRISED[name]}; "
-                         f"got {arg!r}") from None
+    value = parsed.number(PARAMETRISED[name])
     if name == "rk2":
         return ExplicitRK(f"rk2:{value:g}", rk2_tableau(value))
     return AdaptiveDormandPrince(rtol=value, atol=value * 1e-3)
@@ -103,7 +101,7 @@ def method_info(spec: str) -> dict | None:
     sparse first-order theta methods of the grid models (crank_nicolson) and the static solve
     ("steady", order 0: one complete solve to the solver's tolerance)."""
     from .sparse_linear import first_order_implicit
-    name = str(spec).partition(":")[0]
+    name = spec_name(spec)
     if name in STATIC_SOLVE:
         return dict(STATIC_SOLVE[name])
     try:

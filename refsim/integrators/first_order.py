@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .spec import IntegratorSpec
 from .tableaux import EULER, HEUN, MIDPOINT, RK4, Tableau, rk2_tableau
 
 
@@ -162,16 +163,14 @@ EXPLICIT_FIRST_ORDER = tuple(n for n in FIRST_ORDER if n != "implicit_euler")
 def get_first_order(spec: str) -> FirstOrderStepper:
     """'explicit_euler', 'midpoint', 'heun', 'rk2' (Ralston) or 'rk2:alpha', 'rk4',
     'implicit_euler'."""
-    name, _, arg = str(spec).partition(":")
+    parsed = IntegratorSpec.parse(spec)
+    name = parsed.name
     if name not in _FACTORIES:
         raise ValueError(f"first-order integrator must be one of {list(_FACTORIES)}, got "
                          f"{spec!r}")
-    if not arg:
+    if not parsed.arg:
         return _FACTORIES[name]()
     if name != "rk2":
         raise ValueError(f"first-order integrator {name!r} takes no parameter, got {spec!r}")
-    try:
-        alpha = float(arg)
-    except ValueError:
-        raise ValueError(f"rk2 alpha must be a number in (0, 1], got {arg!r}") from None
+    alpha = parsed.number("alpha in (0, 1]")
     return FirstOrderRK(f"rk2:{alpha:g}", rk2_tableau(alpha))

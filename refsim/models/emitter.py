@@ -27,6 +27,8 @@ import math
 
 import numpy as np
 
+from refsim.integrators.spec import spec_name
+
 FORMULATIONS = ("corrected", "as_printed")
 # steppers whose position moves with the old velocity (c = k(k-1)/2) or the new (k(k+1)/2)
 OLD_VELOCITY_DRIFT = frozenset({"explicit_euler", "symplectic_euler_dk"})
@@ -121,7 +123,7 @@ def continuum_alive(emitter, t):
 def drift_factor(stepper_name: str, k):
     """c(k) of the exact discrete path (module docstring)."""
     k = np.asarray(k, float)
-    name = stepper_name.partition(":")[0]
+    name = spec_name(stepper_name)
     if name in OLD_VELOCITY_DRIFT:
         return 0.5 * k * (k - 1.0)
     if name in NEW_VELOCITY_DRIFT:

@@ -44,3 +44,15 @@ def test_closed_form_equals_the_stepper(spec, damped):
 def test_adaptive_has_no_discrete_solution():
     assert not has_discrete_solution("dopri5_adaptive:1e-9")
     assert has_discrete_solution("rk2:0.5")
+
+
+def test_integrator_specs_are_parsed_in_one_place():
+    """IntegratorSpec: the name, the parameter text and whether a ':' was written; a bad
+    number names the parameter's meaning."""
+    from refsim.integrators.spec import IntegratorSpec, spec_name
+    assert IntegratorSpec.parse("rk2:0.5") == IntegratorSpec("rk2", "0.5", True)
+    assert IntegratorSpec.parse("rk4").number("none") is None
+    assert spec_name("dopri5_adaptive:1e-8") == "dopri5_adaptive" and spec_name(None) == ""
+    assert str(IntegratorSpec.parse("rk2:")) == "rk2:" and IntegratorSpec.parse("rk2:").colon
+    with pytest.raises(ValueError, match="alpha in"):
+        IntegratorSpec.parse("rk2:x").number("alpha in (0, 1]")

@@ -19,6 +19,7 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
+from refsim.integrators.spec import spec_name
 from refsim.models.nbody_gravity import GravitySystem
 from refsim.scene.gravity_pairs import gravity_pairs_of
 
@@ -76,7 +77,7 @@ def _claims(scene) -> bool:
 
 def _supports(engine, scene, integrator):
     n = len(scene.particles)
-    if integrator is not None and integrator.partition(":")[0] == "implicit_euler" \
+    if integrator is not None and spec_name(integrator) == "implicit_euler" \
             and n > MAX_IMPLICIT_BODIES:
         return (f"refsim gravity: implicit_euler solves a dense {3 * n} x {3 * n} Jacobian "
                 f"per Newton step, offered up to {MAX_IMPLICIT_BODIES} bodies (got {n})")
