@@ -71,22 +71,31 @@ class ContactInfo:
     """What contact tolerances read of an engine's settings: the contact model ("impulse":
     Newton restitution at the impact; "soft": a spring-damper whose restitution comes from a
     damping ratio), the detection ("discrete" at the end of a step, or "continuous"), the
-    soft contact's calibration residual |e_obtained - e| and its contact duration (s)."""
+    soft contact's calibration residual |e_obtained - e| and its contact duration (s); its
+    sink factor, the share of the spring's static sink a0 / K that remains (1 for a plain
+    spring-damper; (1 - d) / d where the solver blends a = d aref + (1 - d) a0, as MuJoCo's
+    impedance d does), and whether its friction rows are soft too (a tangential slip damped
+    at rate B = 2 pi / T_c: a creep (1 - d) a0_t / (d B) remains)."""
 
     model: str = "impulse"
     detection: str = "discrete"
     restitution_residual: float = 0.0
     duration_s: float = 0.0
+    sink_factor: float = 1.0
+    soft_friction: bool = False
 
     @classmethod
     def of(cls, settings) -> "ContactInfo":
         """From an engine's settings dict (keys contact_model, detection, restitution_mapping
-        .residual_max, contact_duration_s); the defaults where absent."""
+        .residual_max, contact_duration_s, contact_sink_factor, contact_soft_friction); the
+        defaults where absent."""
         s = settings if isinstance(settings, dict) else {}
         mapping = s.get("restitution_mapping", {})
         residual = mapping.get("residual_max", 0.0) if isinstance(mapping, dict) else 0.0
         return cls(str(s.get("contact_model", "impulse")), str(s.get("detection", "discrete")),
-                   float(residual), float(s.get("contact_duration_s", 0.0)))
+                   float(residual), float(s.get("contact_duration_s", 0.0)),
+                   float(s.get("contact_sink_factor", 1.0)),
+                   bool(s.get("contact_soft_friction", False)))
 
     @property
     def soft(self) -> bool:

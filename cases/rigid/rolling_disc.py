@@ -154,21 +154,32 @@ class RollingDisc(RigidCase):
     # -- tolerance ------------------------------------------------------------------------------
     def compliance_bound(self, p, settings) -> tuple[float, str]:
         """A soft contact of duration T_c = pi / sqrt(K) sinks by at most
-        delta = g cos theta / K; rolling on radii within [r - delta, r] (torque arm and
-        kinematic radius) changes a = g sin / (1 + I / (m rho_t rho_k)) by a relative
-        |d ln a| <= k / (1 + k) 2 delta / r, so s by that times a t^2 / 2. Slipping: the
-        friction force mu N and a do not depend on the radius; alpha only through rho_t."""
+        delta = f g cos theta / K (f: the engine's sink factor, ContactInfo; 1e-4 for MuJoCo's
+        impedance 0.9999); rolling on radii within [r - delta, r] (torque arm and kinematic
+        radius) changes a = g sin / (1 + I / (m rho_t rho_k)) by a relative
+        |d ln a| <= k / (1 + k) 2 delta / r, so s by that times a t^2 / 2. Soft friction rows
+        (MuJoCo's) let the contact creep at v_c = f a0_t / B, a0_t = g sin theta (the contact
+        point's unconstrained acceleration), B = 2 pi / T_c; a slip set up by an impulse
+        J at the contact changes v by J / m and v_c = J (1/m + r^2 / I), so the centre gains
+        at most k / (1 + k) v_c (k = I / (m r^2)), kept over the run. Slipping: the friction
+        force mu N and a do not depend on the radius; alpha only through rho_t."""
         info = ContactInfo.of(settings)
         if not info.soft or info.duration_s <= 0:
             return 0.0, ""
-        k = p["inertia_ratio"]
-        delta = p["g"] * np.cos(p["incline"]) * (info.duration_s / np.pi) ** 2
+        k, f, tc = p["inertia_ratio"], info.sink_factor, info.duration_s
+        delta = f * p["g"] * np.cos(p["incline"]) * (tc / np.pi) ** 2
         rel = k / (1.0 + k) * 2.0 * delta / p["radius"] if rolls(p) else 0.0
         bound = rel * self.motion_scale(p)
-        return bound, (f"; plus soft contact: sinks delta <= g cos theta (T_c / pi)^2 = "
-                       f"{delta:.3g} m (T_c = {info.duration_s:.3g} s), a changed by <= "
-                       f"k / (1 + k) 2 delta / r = {rel:.3g} relative (rolling radius "
-                       f"r - delta): {bound:.3g} m")
+        why = (f"; plus soft contact: sinks delta <= f g cos theta (T_c / pi)^2 = {delta:.3g} "
+               f"m (T_c = {tc:.3g} s, sink factor f = {f:.3g}), a changed by <= k / (1 + k) "
+               f"2 delta / r = {rel:.3g} relative (rolling radius r - delta): {bound:.3g} m")
+        if info.soft_friction and rolls(p):
+            creep = k / (1.0 + k) * f * p["g"] * np.sin(p["incline"]) * tc / (2 * np.pi)
+            bound += creep * p["duration"]
+            why += (f"; plus the soft friction's creep: the contact slips at v_c = f g sin "
+                    f"theta / B (B = 2 pi / T_c), the centre gains k / (1 + k) v_c = "
+                    f"{creep:.3g} m/s, over the run {creep * p['duration']:.3g} m")
+        return bound, why
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         """Constant accelerations: a first-order split step errs by a t h / 2 exactly

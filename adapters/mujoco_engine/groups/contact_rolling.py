@@ -203,6 +203,8 @@ class MujocoRollingSim(MujocoSim):
             "solreffriction": "0 0 (friction rows use solref: slip damped at rate B)",
             "solimp": [IMPEDANCE, IMPEDANCE, 0.001, 0.5, 2.0],
             "solimp_note": "flat d = 0.9999: a = d aref + (1 - d) a0, a near-hard contact",
+            "contact_sink_factor": (1.0 - IMPEDANCE) / IMPEDANCE,
+            "contact_soft_friction": True,
             "condim": 3, "cone": "elliptic", "impratio": 1.0, "noslip_iterations": 0,
             "friction": self.scene.contact.friction,
             "friction_mapping": "mu on every pair (replaces the geoms' friction), sliding "
