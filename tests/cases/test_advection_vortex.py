@@ -3,16 +3,16 @@ radius grows by |R(iy)| a step, and the errors against the flow converge at the 
 import numpy as np
 import pytest
 
+from adapters.planted_defects.checks import job_uncaught
 from cases.particle_fields.advection_vortex import AXIS, CASE, CENTRE
 from refsim.engine import Engine
 from refsim.integrators.first_order import get_first_order
+from refsim.integrators.tableaux import RK4
 from refsim import registry
 from refsim.job import Job, run_job
 from refsim.models.advection import vortex_radius_factor
 
 FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")
-
-
 
 
 @pytest.mark.parametrize("integrator", FIELD_STEPPERS)
@@ -57,39 +57,18 @@ def test_case_contract():
 
 
 # -- planted defects: a wrong method exceeds the named method's exact bound --------------------
-@pytest.fixture(scope="module")
-def planted():
-    from adapters.planted_defects.engines import register_all
-    names = register_all()
-    yield
-    for name in names:
-        registry.unregister("engine", name)
-
-
 @pytest.mark.parametrize("defect", ["planted_heun_as_rk4", "planted_rk3_as_rk4"])
 def test_a_wrong_method_exceeds_the_named_methods_bound(planted, defect):
     """At every dt of the sweep (measured: Heun 2e3 .. 2e5 x, Kutta's RK3 50 .. 500 x RK4's
     exact bound)."""
-    p = CASE.variant_params("default")
-    for dt in sorted(CASE.dts(p) + CASE.order_dts(p)):
-        row = run_job(Job(CASE.name, "default", defect, "", "rk4", dt), repeats=0)
-        assert row["status"] == "ok", row["reason"]
-        assert row["err_max"] > CASE.tolerance(p, "rk4", 4, dt)[0], (defect, dt)
+    assert not job_uncaught(CASE, "default", defect, "rk4", 4), defect
 
 
-def test_exact_part_is_the_rk_step_matrix_of_the_tableau():
+def test_exact_part_is_the_rk_step_matrix_of_the_tableau(rk_step_deviation):
     """The tolerance's exact part, from refsim.models.advection's stability factors, equals the
     explicit RK step matrix on p' = M (p - c) written from the tableau (refsim.expected's
     _rk_matrix) to 1e-12 relative."""
-    from scipy.linalg import expm
-
-    from refsim.expected import _rk_matrix
-    from refsim.integrators.tableaux import RK4
     p = CASE.variant_params("default", {"particles": 20})
     dt = CASE.dts(p)[0]
-    matrix, rel = CASE.field(p).matrix(), CASE.relative_start(p)
-    step = _rk_matrix(RK4, matrix, dt)
-    worst = max(np.max(np.linalg.norm(rel @ (np.linalg.matrix_power(step, int(k))
-                                              - expm(matrix * k * dt)).T, axis=1))
-                for k in CASE.sampled_steps(p, dt))
+    worst = rk_step_deviation(CASE, p, dt, RK4)
     assert CASE.discrete_deviation(p, "rk4", dt)[0] == pytest.approx(worst, rel=1e-12)

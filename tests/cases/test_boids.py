@@ -2,11 +2,9 @@
 import numpy as np
 import pytest
 
-from adapters.planted_defects.engines import register_all
+from adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
 from cases.particle_fields.boids import CASE
-from refsim.job import Job, run_job
 from refsim.models.flocking import velocity_variance
-from refsim.registry import unregister
 
 
 def test_reference_keeps_the_mean_velocity_and_flocks_within_the_bound():
@@ -36,21 +34,7 @@ def test_reynolds_variant_has_no_bound_figure():
 # -- the bound: the exact discrete solution of the named method on the frozen linear flow ----
 
 P = CASE.variant_params("cucker_smale")
-SWEEP = sorted(CASE.dts(P) + CASE.order_dts(P))
-
-
-@pytest.fixture(scope="module")
-def planted():
-    names = register_all()
-    yield
-    for name in names:
-        unregister("engine", name)
-
-
-def _error(engine, integrator, dt):
-    row = run_job(Job("boids", "cucker_smale", engine, "", integrator, dt), repeats=0)
-    assert row["status"] == "ok", row["reason"]
-    return row["err_max"]
+SWEEP = sweep(CASE, P)
 
 
 @pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler", "heun", "rk4",
@@ -58,10 +42,7 @@ def _error(engine, integrator, dt):
 def test_refsim_within_its_bound_and_the_bound_is_tight(integrator):
     """Every dt of the sweep: error <= bound <= 5 x error (measured 1.9 .. 4.7: the safety
     factor 2, and the reference's error where the error is at the floor)."""
-    for dt in SWEEP:
-        err = _error("refsim", integrator, dt)
-        bound, reason = CASE.tolerance(P, integrator, 0, dt)
-        assert err <= bound <= 5.0 * err, (integrator, dt, err, bound, reason)
+    assert not bound_misfits(CASE, "cucker_smale", integrator, SWEEP, 5.0), integrator
 
 
 @pytest.mark.parametrize("defect,integrator,named,order", [
@@ -69,16 +50,12 @@ def test_refsim_within_its_bound_and_the_bound_is_tight(integrator):
     ("planted_euler_as_verlet", "velocity_verlet", "velocity_verlet", 2)])
 def test_a_wrong_method_exceeds_the_named_methods_bound(planted, defect, integrator, named,
                                                         order):
-    for dt in SWEEP:
-        err = _error(defect, integrator, dt)
-        if err > CASE.error_floor(P):
-            assert err > CASE.tolerance(P, named, order, dt)[0], (defect, dt, err)
+    assert not job_uncaught(CASE, "cucker_smale", defect, integrator, order, SWEEP, named=named,
+                            floor=CASE.error_floor(P)), defect
 
 
 def test_velocity_damping_is_caught_at_the_finest_dt(planted):
-    dt = SWEEP[0]
-    err = _error("planted_velocity_damping", "rk4", dt)
-    assert err > CASE.tolerance(P, "rk4", 4, dt)[0]
+    assert not job_uncaught(CASE, "cucker_smale", "planted_velocity_damping", "rk4", 4, SWEEP[:1])
 
 
 def test_frozen_error_is_the_discrete_solution_of_the_full_linear_system():

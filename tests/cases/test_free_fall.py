@@ -1,17 +1,14 @@
 """free_fall: the bound is the named method's exact discrete solution's error (g carried by a
 constant coordinate) plus round-off: a correct engine meets it, and a wrong method, gravity
 +0.1 %, a forgotten mass or a velocity damping of 1e-4 per step exceeds it."""
-import numpy as np
 import pytest
-from test_stiff_spring import impostor_row, named_bound, scene_defect_row
+from test_stiff_spring import finest_scene_defect, impostor_uncaught, named_bound, \
+    scene_defect_row
 
+from adapters.planted_defects.checks import sweep
 from cases.particles.free_fall import CASE
 from refsim.job import Job, run_job
 from refsim.runner import expand
-
-
-def _sweep(p):
-    return sorted(CASE.dts(p) + CASE.order_dts(p))
 
 
 @pytest.mark.parametrize("variant", ["default", "drag"])
@@ -24,7 +21,7 @@ def test_refsim_rows_within_their_bound_and_at_it_above_the_floor(variant, integ
     is the error itself, to 1 % (the round-off term); adaptive: within 3x (its controller
     steps below the limit h(t) the bound assumes)."""
     p = CASE.variant_params(variant)
-    for dt in _sweep(p):
+    for dt in sweep(CASE, p):
         row = run_job(Job(CASE.name, variant, "refsim", "", integrator, dt), repeats=0)
         assert row["status"] == "ok", row["reason"]
         bound = named_bound(row, p, integrator)
@@ -50,12 +47,8 @@ def test_euler_bound_is_g_t_dt_over_2_without_drag():
 def test_wrong_method_exceeds_the_named_methods_bound(monkeypatch, named, impostor, variants):
     """At every dt of the sweep where it errs above the floor."""
     for variant in variants:
-        p = CASE.variant_params(variant)
-        for dt in _sweep(p):
-            row = impostor_row(monkeypatch, CASE, variant, named, impostor, dt)
-            assert row["status"] == "ok", row["reason"]
-            if row["err_max"] > CASE.error_floor(p):
-                assert row["err_max"] > named_bound(row, p, named), (variant, dt)
+        assert not impostor_uncaught(monkeypatch, CASE, variant, named, impostor,
+                                     skipped=lambda status: False), variant
 
 
 @pytest.mark.parametrize("defect, change", [
@@ -68,11 +61,8 @@ def test_wrong_method_exceeds_the_named_methods_bound(monkeypatch, named, impost
                                         "dopri5_adaptive"])
 def test_physical_defects_exceed_the_bound_at_the_finest_dt(monkeypatch, defect, change,
                                                             integrator):
-    p = CASE.variant_params("drag")
-    dt = min(CASE.dts(p))
-    row = scene_defect_row(monkeypatch, CASE, "drag", integrator, dt, change)
-    assert row["status"] == "ok" and row["err_max"] > 2 * named_bound(row, p, integrator), \
-        defect
+    row, bound = finest_scene_defect(monkeypatch, CASE, "drag", integrator, change)
+    assert row["status"] == "ok" and row["err_max"] > 2 * bound, defect
 
 
 @pytest.mark.parametrize("integrator", ["explicit_euler", "rk4", "velocity_verlet"])

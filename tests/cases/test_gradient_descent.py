@@ -3,14 +3,13 @@ stepper), stability iff h < 2/lambda for explicit Euler."""
 import numpy as np
 import pytest
 
+from adapters.planted_defects.checks import job_uncaught
 from cases.particle_fields.gradient_descent import CASE
 from refsim.integrators.first_order import get_first_order
-from refsim import registry
+from refsim.integrators.tableaux import RK4
 from refsim.job import Job, run_job
 
 FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")
-
-
 
 
 def test_euler_contraction_is_one_minus_h_lambda():
@@ -57,39 +56,18 @@ def test_stable_iff_h_below_two_over_lambda():
 
 
 # -- planted defects: a wrong method exceeds the named method's exact bound --------------------
-@pytest.fixture(scope="module")
-def planted():
-    from adapters.planted_defects.engines import register_all
-    names = register_all()
-    yield
-    for name in names:
-        registry.unregister("engine", name)
-
-
 @pytest.mark.parametrize("defect", ["planted_heun_as_rk4", "planted_rk3_as_rk4"])
 def test_a_wrong_method_exceeds_the_named_methods_bound(planted, defect):
     """At every dt of the sweep (measured: Heun 2e3 .. 2e5 x, Kutta's RK3 50 .. 500 x RK4's
     exact bound)."""
-    p = CASE.variant_params("default")
-    for dt in sorted(CASE.dts(p) + CASE.order_dts(p)):
-        row = run_job(Job(CASE.name, "default", defect, "", "rk4", dt), repeats=0)
-        assert row["status"] == "ok", row["reason"]
-        assert row["err_max"] > CASE.tolerance(p, "rk4", 4, dt)[0], (defect, dt)
+    assert not job_uncaught(CASE, "default", defect, "rk4", 4), defect
 
 
-def test_exact_part_is_the_rk_step_matrix_of_the_tableau():
+def test_exact_part_is_the_rk_step_matrix_of_the_tableau(rk_step_deviation):
     """The tolerance's exact part, from refsim.models.advection's stability factors, equals the
     explicit RK step matrix on p' = M (p - c) written from the tableau (refsim.expected's
     _rk_matrix) to 1e-12 relative."""
-    from scipy.linalg import expm
-
-    from refsim.expected import _rk_matrix
-    from refsim.integrators.tableaux import RK4
     p = CASE.variant_params("default", {"particles": 20})
     dt = CASE.dts(p)[0]
-    matrix, rel = CASE.field(p).matrix(), CASE.relative_start(p)
-    step = _rk_matrix(RK4, matrix, dt)
-    worst = max(np.max(np.linalg.norm(rel @ (np.linalg.matrix_power(step, int(k))
-                                              - expm(matrix * k * dt)).T, axis=1))
-                for k in CASE.sampled_steps(p, dt))
+    worst = rk_step_deviation(CASE, p, dt, RK4)
     assert CASE.discrete_deviation(p, "rk4", dt)[0] == pytest.approx(worst, rel=1e-12)

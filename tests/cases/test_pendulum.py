@@ -4,18 +4,15 @@ sensitivities, times the one safety factor: a correct engine meets it; a wrong m
 gravity +0.1 %, a rod 0.5 % long or a velocity damping of 1e-4 per step exceeds it."""
 import numpy as np
 import pytest
-from test_stiff_spring import impostor_row, named_bound, scene_defect_row
+from test_stiff_spring import WRONG_METHODS, finest_scene_defect, impostor_uncaught, named_bound
 
+from adapters.planted_defects.checks import sweep
 from cases.particles.pendulum import CASE, SAFETY
 from refsim.integrators import get_integrator
 from refsim.job import Job, run_job
 
 FIXED = ["explicit_euler", "symplectic_euler", "symplectic_euler_dk", "heun", "rk4", "dopri5",
          "velocity_verlet", "stormer_verlet", "implicit_euler"]
-
-
-def _sweep(p):
-    return sorted(CASE.dts(p) + CASE.order_dts(p))
 
 
 def _check(row, p, integrator):
@@ -35,7 +32,7 @@ def test_generalized_rows_within_their_bound(integrator):
     bound, and above the floor within 40x of the error (measured 2.0..34)."""
     for variant in ("default", "large_amplitude"):
         p = CASE.variant_params(variant)
-        dts = _sweep(p) if variant == "default" else CASE.dts(p)
+        dts = sweep(CASE, p) if variant == "default" else CASE.dts(p)
         for dt in dts:
             row = run_job(Job(CASE.name, variant, "refsim", "generalized", integrator, dt),
                           repeats=0)
@@ -66,18 +63,13 @@ def test_symplectic_euler_bound_is_its_shape_error_times_the_safety_factor():
     assert 1.0 <= ratio < 1.03
 
 
-@pytest.mark.parametrize("named, impostor", [("rk4", "heun"), ("rk4", "kutta3"),
-                                             ("velocity_verlet", "explicit_euler")])
+@pytest.mark.parametrize("named, impostor", WRONG_METHODS)
 @pytest.mark.parametrize("variant", ["default", "large_amplitude"])
 def test_wrong_method_exceeds_the_named_methods_bound(monkeypatch, variant, named, impostor):
-    """At every dt of the sweep where it errs above the floor (or diverges)."""
-    p = CASE.variant_params(variant)
-    for dt in _sweep(p):
-        row = impostor_row(monkeypatch, CASE, variant, named, impostor, dt, "generalized")
-        if row["status"] != "ok":
-            continue  # diverged: caught by the run itself
-        if row["err_max"] > CASE.error_floor(p):
-            assert row["err_max"] > named_bound(row, p, named), (dt, row["err_max"])
+    """At every dt of the sweep where it errs above the floor (or diverges: any status but ok
+    is caught by the run itself)."""
+    assert not impostor_uncaught(monkeypatch, CASE, variant, named, impostor, "generalized",
+                                 skipped=lambda status: status != "ok")
 
 
 @pytest.mark.parametrize("defect, change", [
@@ -91,11 +83,9 @@ def test_physical_defects_exceed_the_bound_at_the_finest_dt(monkeypatch, defect,
                                                             integrator):
     """(Explicit and implicit Euler's bounds, 0.34 rad at 1 ms, are above the 0.016 rad that
     gravity +0.1 % shifts the swing by in 10 s: not caught by those methods.)"""
-    p = CASE.variant_params("default")
-    dt = min(CASE.dts(p))
-    row = scene_defect_row(monkeypatch, CASE, "default", integrator, dt, change,
-                           "generalized")
-    assert row["status"] == "ok" and row["err_max"] > named_bound(row, p, integrator), defect
+    row, bound = finest_scene_defect(monkeypatch, CASE, "default", integrator, change,
+                                     "generalized")
+    assert row["status"] == "ok" and row["err_max"] > bound, defect
 
 
 @pytest.mark.parametrize("integrator", ["heun", "rk4", "symplectic_euler"])

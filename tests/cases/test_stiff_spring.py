@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 
+from adapters.planted_defects.checks import sweep, uncaught
 from cases.particles.stiff_spring import CASE
 from refsim.integrators import ExplicitRK, Tableau, get_integrator
 from refsim.job import Job, run_job
@@ -18,6 +19,8 @@ KUTTA3 = Tableau(a=((0, 0, 0), (0.5, 0, 0), (-1, 2, 0)), b=(1 / 6, 2 / 3, 1 / 6)
 IMPOSTORS = {"heun": lambda: get_integrator("heun"),
              "kutta3": lambda: ExplicitRK("rk4", KUTTA3),
              "explicit_euler": lambda: get_integrator("explicit_euler")}
+# (named, impostor): an "rk4" one or two orders short, a "velocity_verlet" that is Euler
+WRONG_METHODS = [("rk4", "heun"), ("rk4", "kutta3"), ("velocity_verlet", "explicit_euler")]
 
 
 def named_bound(row, p, named):
@@ -40,6 +43,22 @@ def impostor_row(monkeypatch, case, variant, named, impostor, dt, engine_variant
     return row
 
 
+def impostor_uncaught(monkeypatch, case, variant, named, impostor, engine_variant="",
+                      skipped=lambda status: status == "diverged"):
+    """checks.uncaught for `impostor_row` at every dt of the variant's sweep, against the bound
+    the case gives `named` (named_bound), above the case's error floor: a row whose status is
+    `skipped` is not judged (caught by the run itself), any other status but ok fails."""
+    p = case.variant_params(variant)
+
+    def judged(dt):
+        row = impostor_row(monkeypatch, case, variant, named, impostor, dt, engine_variant)
+        if skipped(row["status"]):
+            return None
+        assert row["status"] == "ok", row["reason"]
+        return row["err_max"], named_bound(row, p, named)
+    return uncaught(sweep(case, p), judged, case.error_floor(p))
+
+
 def scene_defect_row(monkeypatch, case, variant, integrator, dt, change, engine_variant=""):
     """refsim's engine on a defective scene (`change(p)`: the parameters it is built from),
     judged against the case's own reference and bound."""
@@ -51,8 +70,13 @@ def scene_defect_row(monkeypatch, case, variant, integrator, dt, change, engine_
     return row
 
 
-def _sweep(p):
-    return sorted(CASE.dts(p) + CASE.order_dts(p))
+def finest_scene_defect(monkeypatch, case, variant, integrator, change, engine_variant=""):
+    """(row, bound): `scene_defect_row` at the variant's finest timed dt and the bound the case
+    gives `integrator` there (named_bound)."""
+    p = case.variant_params(variant)
+    row = scene_defect_row(monkeypatch, case, variant, integrator, min(case.dts(p)), change,
+                           engine_variant)
+    return row, named_bound(row, p, integrator)
 
 
 @pytest.mark.parametrize("variant", ["default", "critical"])
@@ -76,19 +100,11 @@ def test_refsim_rows_within_their_bound_and_near_it(variant, integrator):
             assert bound / row["err_max"] < (3.0 if "adaptive" in integrator else 1.01)
 
 
-@pytest.mark.parametrize("named, impostor", [("rk4", "heun"), ("rk4", "kutta3"),
-                                             ("velocity_verlet", "explicit_euler")])
+@pytest.mark.parametrize("named, impostor", WRONG_METHODS)
 @pytest.mark.parametrize("variant", ["default", "underdamped"])
 def test_wrong_method_exceeds_the_named_methods_bound(monkeypatch, variant, named, impostor):
     """At every dt of the sweep where it errs above the floor (or diverges)."""
-    p = CASE.variant_params(variant)
-    for dt in _sweep(p):
-        row = impostor_row(monkeypatch, CASE, variant, named, impostor, dt)
-        if row["status"] == "diverged":
-            continue  # caught by the run itself
-        assert row["status"] == "ok", row["reason"]
-        if row["err_max"] > CASE.error_floor(p):
-            assert row["err_max"] > named_bound(row, p, named), (dt, row["err_max"])
+    assert not impostor_uncaught(monkeypatch, CASE, variant, named, impostor)
 
 
 @pytest.mark.parametrize("defect, change", [
@@ -99,11 +115,8 @@ def test_wrong_method_exceeds_the_named_methods_bound(monkeypatch, variant, name
 @pytest.mark.parametrize("integrator", ["rk4", "velocity_verlet", "dopri5_adaptive"])
 def test_physical_defects_exceed_the_bound_at_the_finest_dt(monkeypatch, defect, change,
                                                             integrator):
-    p = CASE.variant_params("underdamped")
-    dt = min(CASE.dts(p))
-    row = scene_defect_row(monkeypatch, CASE, "underdamped", integrator, dt, change)
-    assert row["status"] == "ok" and row["err_max"] > 10 * named_bound(row, p, integrator), \
-        defect
+    row, bound = finest_scene_defect(monkeypatch, CASE, "underdamped", integrator, change)
+    assert row["status"] == "ok" and row["err_max"] > 10 * bound, defect
 
 
 @pytest.mark.parametrize("integrator", ["rk4", "velocity_verlet", "dopri5"])
