@@ -9,7 +9,7 @@ Linear drag f = -b v is joint damping: b on each slide, b L^2 on a hinge (exact 
 The body's reference pose (qpos = 0) is the scene's initial pose, so refsim's positions need no
 sign or offset conventions and MuJoCo's own reset target is the initial state.
 
-Facts applied (ENGINE_NOTES.md, mujoco 4.0.0), each reported in `Sim.settings()`:
+Facts applied (docs/engine_notes.md#mujoco, mujoco 4.0.0), each reported in `Sim.settings()`:
 - gravity and timestep are set explicitly (MuJoCo defaults: -9.81 z, 0.002 s);
 - a point mass gets an explicit `<inertial>` with diaginertia 1e-12 (1e-9 showed a 1e-8 error
   under RK4), never inertia from geoms;

@@ -12,7 +12,9 @@ from ..common.checks import body_to_body_springs
 from ..common.hinges import rod_start_refusal
 from .body_plan import BodyPlan
 
-POINT_INERTIA = 1e-12  # kg m^2: ENGINE_NOTES (1e-12 clean, 1e-9 a 1e-8 error under RK4)
+# kg m^2: docs/engine_notes.md#mujoco-point-mass-inertia (1e-12 clean, 1e-9 a 1e-8 error
+# under RK4)
+POINT_INERTIA = 1e-12
 _GEOMETRY_RTOL = 1e-9  # a spring body must stay on its anchor line to this (rods: common)
 WHO = "mujoco adapter"  # how the reasons name this engine
 

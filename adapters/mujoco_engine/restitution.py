@@ -1,7 +1,8 @@
 """The contact damping B that gives a requested restitution e, measured in MuJoCo itself.
 
-MuJoCo has no restitution parameter (ENGINE_NOTES: the default solref gives e ~ 0.13 whatever
-is asked). A bisection on B finds the B for which the restitution MuJoCo produces (two spheres
+MuJoCo has no restitution parameter (docs/engine_notes.md#mujoco-no-restitution-parameter: the
+default solref gives e ~ 0.13 whatever is asked). A bisection on B finds the B for which the
+restitution MuJoCo produces (two spheres
 head-on at the scene's dt with the scene's integrator), averaged over CALIBRATION_PHASES contact
 onsets within a step, equals e; the largest deviation over onsets is reported as the residual.
 Deterministic and cached per process."""

@@ -3,9 +3,9 @@
 One free-jointed body per sphere with an explicit `<inertial>` (scene mass, diaginertia = the
 scene's 2/5 m r^2; `inertiafromgeom` off, checked after compiling) and a sphere geom; each wall
 is a plane geom through its point with z axis = its inward normal. MuJoCo has no restitution
-parameter (ENGINE_NOTES: the default solref gives e ~ 0.13 whatever is asked), so contacts are
-its soft contacts in the direct form solref = (-K, -B) with a flat impedance d (solimp dmin =
-dmax):
+parameter (docs/engine_notes.md#mujoco-no-restitution-parameter: the default solref gives
+e ~ 0.13 whatever is asked), so contacts are its soft contacts in the direct form
+solref = (-K, -B) with a flat impedance d (solimp dmin = dmax):
 - an isolated contact's relative normal acceleration is then exactly -K pos - B vel, whatever
   the masses and d (engine_core_constraint.c stores K/d^2 and B/d, aref = -(B vel + K pos)/d,
   and the solver returns a = d aref when R = (1-d)/d A); K = (pi / (N dt))^2 makes an

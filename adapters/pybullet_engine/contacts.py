@@ -22,9 +22,10 @@ newtons_cradle and sphere_box cases
   dropped its fresh contact point on round-off and found the contact only after 0.03-0.1 m
   of penetration (sphere-plane and sphere-sphere contacts were exact at 0 too);
 - `restitutionVelocityThreshold` (default 0.2 m/s): slower impacts are perfectly inelastic: 0;
-- contact ERP (default: push-out velocity, an e = 0.5 impact came out 10 % fast; ENGINE_NOTES
-  3-12 %): `contactERP = erp = frictionERP = 0`, split impulse off, so overlaps are never pushed
-  out and velocities change only by the impacts;
+- contact ERP (default: push-out velocity, an e = 0.5 impact came out 10 % fast;
+  docs/engine_notes.md#pybullet-contact-erp-push-out 3-12 %):
+  `contactERP = erp = frictionERP = 0`, split impulse off, so overlaps are never pushed out and
+  velocities change only by the impacts;
 - `solverResidualThreshold` (default: the solver stops early) 0, 50 iterations: simultaneous
   contacts (the cradle) are solved to convergence; a lone contact is exact after one;
 - `changeDynamics(localInertiaDiagonal=...)` on a maximal-coordinate body without `mass` sets the

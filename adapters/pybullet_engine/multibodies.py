@@ -4,7 +4,7 @@ Every body is its own `btMultiBody`: a free point mass is a floating base; a bod
 fixed base at the anchor with one revolute link whose centre of mass is the body (generalized
 coordinates: the rod length is exact, so the constraint error is zero).
 
-Facts applied, measured on pybullet 3.2.7 (ENGINE_NOTES.md):
+Facts applied, measured on pybullet 3.2.7 (docs/engine_notes.md#pybullet):
 - multibodies carry speed-dependent damping 0.04: `linearDamping = angularDamping = 0` on the
   base and the link, `jointDamping = 0` on the joint;
 - multibody speed is clamped at 100 m/s (`maxJointVelocity`): raised to infinity, so an
@@ -83,8 +83,8 @@ def hinge_body(p, cid, body, joint, d, start):
 
 
 def exact_dynamics(p, cid, uid, link, inertia):
-    """ENGINE_NOTES (pybullet 3.2.7): damping off, 100 m/s clamp raised, inertia as given
-    (None for a fixed base), no sleeping."""
+    """docs/engine_notes.md#pybullet (pybullet 3.2.7): damping off, 100 m/s clamp raised,
+    inertia as given (None for a fixed base), no sleeping."""
     kw = dict(linearDamping=0.0, angularDamping=0.0, maxJointVelocity=MAX_SPEED,
               activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
     if link >= 0:

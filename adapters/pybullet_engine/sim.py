@@ -1,9 +1,9 @@
 """The pybullet Sim: one DIRECT client per build, the world's parameters, stepping, observing
 and the settings that state every parameter changed from pybullet's defaults.
 
-Facts applied, measured on pybullet 3.2.7 (ENGINE_NOTES.md): gravity defaults to 0 and the
-step to 1/240 s: both are set; `fixedTimeStep` is the whole step, `numSubSteps=0` (with
-sub-steps an explicit spring is unstable at any dt). Stepping is one `stepSimulation` Python
+Facts applied, measured on pybullet 3.2.7 (docs/engine_notes.md#pybullet): gravity defaults
+to 0 and the step to 1/240 s: both are set; `fixedTimeStep` is the whole step, `numSubSteps=0`
+(with sub-steps an explicit spring is unstable at any dt). Stepping is one `stepSimulation` Python
 call per step (plus the force calls of forces.py, if any).
 """
 from __future__ import annotations

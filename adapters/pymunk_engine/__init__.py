@@ -11,8 +11,8 @@ The step is Chipmunk's `cpSpaceStep` (pymunk 7.3.1, Munk2D 2.0.1, src/cpSpaceSte
 3. `velocity_func` for every body: v = v damping^h + h (g + f / m), then forces are cleared;
 4. cached (warm-start) impulses, then `space.iterations` impulse passes over the constraints.
 For free bodies and springs that is refsim's drift-kick `symplectic_euler_dk` exactly
-(x1 = x + h v; v1 = v + h a(x1)); ENGINE_NOTES.md: free-fall error +g t dt / 2, the opposite
-sign of pybullet's kick-drift.
+(x1 = x + h v; v1 = v + h a(x1)); docs/engine_notes.md#pymunk-drift-kick-step: free-fall
+error +g t dt / 2, the opposite sign of pybullet's kick-drift.
 
 Contacts (feature "contacts", planar scenes only) use the same step (src/cpSpaceStep.c,
 src/cpArbiter.c, src/cpCollision.c): after the drift, circles that overlap (distance < r1 + r2,
@@ -25,7 +25,7 @@ no continuous collision detection, so the contact normal is the one of the penet
 Head-on impacts are exact whatever the step; an oblique impact's normal is rotated by the
 overlap (an O(dt) error in the outcome). Walls are static segments.
 
-ENGINE_NOTES.md facts applied (pymunk 7.3.1): no damping (space.damping = 1.0 keeps
+docs/engine_notes.md#pymunk facts applied (pymunk 7.3.1): no damping (space.damping = 1.0 keeps
 1.0^h = all of the velocity), zero gravity unless the scene sets it, 10 iterations, mass and
 moment > 0 with moment = inf for a point mass, `Body.kinetic_energy` (m v^2 + I w^2, twice the
 kinetic energy) never used, springs as `DampedSpring`, the `PinJoint` bias made explicit,

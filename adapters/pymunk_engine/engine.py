@@ -29,8 +29,9 @@ class PymunkEngine(Engine):
         return non_sphere_bodies(scene, "pymunk")
 
     def variants(self, scene):
-        """`default_bias` keeps pymunk's own PinJoint error_bias (ENGINE_NOTES: it loses
-        energy); `space_damping` uses pymunk's multiplicative global damping for drag."""
+        """`default_bias` keeps pymunk's own PinJoint error_bias
+        (docs/engine_notes.md#pymunk-joint-bias-loses-energy: it loses energy); `space_damping`
+        uses pymunk's multiplicative global damping for drag."""
         if scene.joints:
             return JOINT_VARIANTS
         if scene.linear_drag > 0 and len(set(scene.masses)) == 1:

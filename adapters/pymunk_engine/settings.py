@@ -20,8 +20,9 @@ def sim_settings(sim):
                      "damping_meaning": "velocity kept per second: v *= damping^dt each "
                                         "step; 1.0 = no damping",
                      "gravity": list(space.gravity), "threaded": space.threaded},
-           "bodies": {"moment": "inf for point masses (ENGINE_NOTES: mass and moment must "
-                                "be > 0), else the scene's inertia",
+           "bodies": {"moment": "inf for point masses "
+                                "(docs/engine_notes.md#pymunk-mass-and-moment: mass and "
+                                "moment must be > 0), else the scene's inertia",
                       "shapes": ("a Circle per sphere" if scene.contact is not None
                                  else "none (nothing collides: no collision detection)")},
            "energy": "computed by the case from x and v; Body.kinetic_energy (m v^2 + "
@@ -85,8 +86,9 @@ def joint_settings(joints, variant, dt):
             "max_bias_meaning": "cap on the bias velocity; inf (pymunk's default, kept) applies "
                                 "the whole correction",
             "max_force": [str(j.max_force) for j in joints],
-            "fix": ("error_bias = 0 (ENGINE_NOTES: pymunk's default bias loses energy, 0.118 rad "
-                    "off at a 2.5 rad start)") if variant != "default_bias" else
+            "fix": ("error_bias = 0 (docs/engine_notes.md#pymunk-joint-bias-loses-energy: "
+                    "pymunk's default bias loses energy, 0.118 rad off at a 2.5 rad start)")
+                   if variant != "default_bias" else
                    ("pymunk's default error_bias kept (0.9^60 in single precision = 1.797e-3: "
                     "0.18 % of the error left after one second), shown for comparison")}
 

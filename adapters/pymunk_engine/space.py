@@ -1,7 +1,7 @@
 """The pymunk Space built from a scene: bodies, circles, wall segments, springs and joints.
 
-ENGINE_NOTES.md facts applied (pymunk 7.3.1): no damping, zero gravity unless the scene sets
-it, 10 iterations, mass and moment > 0 with moment = inf for a point mass, springs as
+docs/engine_notes.md#pymunk facts applied (pymunk 7.3.1): no damping, zero gravity unless the
+scene sets it, 10 iterations, mass and moment > 0 with moment = inf for a point mass, springs as
 `DampedSpring`, the `PinJoint` bias made explicit, elasticity and friction multiplied per pair.
 """
 from __future__ import annotations
@@ -25,8 +25,9 @@ WALL_HALF_LENGTH = 100.0  # wall segments span +- this many scene sizes around t
 
 def make_space(pymunk, scene, variant, gravity):
     """A fresh space: gravity from the scene (pymunk's default is zero), damping 1.0 (none)
-    unless drag is mapped to pymunk's global damping, ENGINE_NOTES' 10 iterations, unthreaded,
-    contact position correction off (see COLLISION_BIAS)."""
+    unless drag is mapped to pymunk's global damping, the 10 iterations of
+    docs/engine_notes.md#pymunk-space-defaults, unthreaded, contact position correction off
+    (see COLLISION_BIAS)."""
     space = pymunk.Space(threaded=False)
     space.iterations = ITERATIONS
     space.gravity = gravity
@@ -38,9 +39,10 @@ def make_space(pymunk, scene, variant, gravity):
 
 
 def make_body(pymunk, body, plane):
-    """ENGINE_NOTES (pymunk 7.3.1): mass and moment must be > 0; moment = inf for a point
-    mass (no rotation to integrate). A sphere's moment is the scene's inertia (2/5 m r^2),
-    set here and never recomputed: its circle shape carries no mass or density."""
+    """docs/engine_notes.md#pymunk-mass-and-moment (pymunk 7.3.1): mass and moment must be
+    > 0; moment = inf for a point mass (no rotation to integrate). A sphere's moment is the
+    scene's inertia (2/5 m r^2), set here and never recomputed: its circle shape carries no
+    mass or density."""
     moment = body.inertia if body.inertia > 0 else math.inf
     pb = pymunk.Body(body.mass, moment)
     pb.position, pb.velocity = plane.to2d(body.position), plane.to2d(body.velocity)

@@ -2,8 +2,8 @@
 
 One module per concern:
 - engine: `TaichiEngine` (parts, features, refusals, which Sim runs a scene);
-- runtime: taichi imported and initialised once per process (ENGINE_NOTES.md fixes: no
-  version check, f64, one thread, no fast math, no offline cache), kernels made once;
+- runtime: taichi imported and initialised once per process (docs/engine_notes.md#taichi
+  fixes: no version check, f64, one thread, no fast math, no offline cache), kernels made once;
 - sim: `KernelSim`, the bookkeeping every system shares (compile timing, in-kernel time
   loop or one launch per step, settings);
 - particles: point masses with gravity, drag and springs to anchors; hinged rods in

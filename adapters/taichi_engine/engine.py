@@ -14,9 +14,10 @@ WHO = "taichi adapter"  # how the reasons name this engine
 INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4")
 VARIANTS = ("", "launch_per_step")
 CONTACT_VARIANTS = VARIANTS + ("overlap_normal",)
-# fluids: no launch_per_step. One launch (~30 us, ENGINE_NOTES) is under 1 % of a WCSPH step
-# (~3 ms at res20 on one thread): the formulation cannot show its point there, and its two
-# reference-dt rows cost 27 s of the default run's work. The serial kernel and `parallel`.
+# fluids: no launch_per_step. One launch (~30 us, docs/engine_notes.md#taichi-kernel-launch-cost)
+# is under 1 % of a WCSPH step (~3 ms at res20 on one thread): the formulation cannot show its
+# point there, and its two reference-dt rows cost 27 s of the default run's work. The serial
+# kernel and `parallel`.
 FLUID_VARIANTS = ("", "parallel")
 
 

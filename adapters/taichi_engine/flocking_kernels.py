@@ -18,7 +18,8 @@ Steppers (runtime `method`, one kernel for all: compiled once per process):
 - START: a(x0, v0) into `acc` (velocity Verlet's carried acceleration), no step.
 Each evaluation needs every bird's stage state, so a step is loops over birds: the stage
 states, then every acceleration, then the updates. All loops are serial inside the
-serialized time loop (the outermost loop of a kernel runs in parallel: ENGINE_NOTES).
+serialized time loop (the outermost loop of a kernel runs in parallel:
+docs/engine_notes.md#taichi-outermost-loop-runs-in-parallel).
 No `from __future__ import annotations` here: taichi reads the annotations as objects.
 """
 from .kernel_types import f64, i32, nd_f64, nd_vec3, ti, vec3

@@ -8,8 +8,9 @@ d = x_j - x_i), and three steppers whose time loop runs inside one kernel:
 
 Every stage needs every body's position, so a step is a sequence of loops over bodies (each
 stage's accelerations first, then the update), all serial inside the serialized time loop
-(the outermost loop of a kernel runs in parallel: ENGINE_NOTES). `accelerations` alone, for
-the benchmark, is a kernel whose outer loop over bodies may run in parallel.
+(the outermost loop of a kernel runs in parallel:
+docs/engine_notes.md#taichi-outermost-loop-runs-in-parallel). `accelerations` alone, for the
+benchmark, is a kernel whose outer loop over bodies may run in parallel.
 No `from __future__ import annotations` here: taichi reads the annotations as objects.
 """
 from .kernel_types import f64, nd_f64, nd_vec3, ti, vec3

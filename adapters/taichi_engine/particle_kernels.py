@@ -1,9 +1,10 @@
 """Point masses and hinged rods as taichi functions, the three steppers, and the kernel
 factories that join them (one compiled kernel per system and stepper per process).
 
-taichi has no integrator of its own ("whatever the kernel says; the adapter decides and
-declares it", ENGINE_NOTES.md), so this adapter writes three, each as a `ti.func` with one
-signature, driven by one generic kernel whose time loop runs inside the kernel:
+taichi has no integrator of its own (whatever the kernel says; the adapter decides and
+declares it: docs/engine_notes.md#taichi-the-adapter-writes-the-integrator), so this adapter
+writes three, each as a `ti.func` with one signature, driven by one generic kernel whose time
+loop runs inside the kernel:
 
 - "symplectic_euler": kick-drift, v += h a(x, v); x += h v (refsim's `symplectic_euler`);
 - "velocity_verlet": half kick, drift, half kick, acceleration carried between steps, and one

@@ -1,7 +1,8 @@
 """The taichi runtime: imported and initialised once per process, lazily (the kernels made from
 it and the arrays handed to them: `kernel_store`, which imports this module, never the reverse).
 
-ENGINE_NOTES.md facts applied here (taichi 1.7.4), all reported in `Sim.settings()`:
+docs/engine_notes.md#taichi facts applied here (taichi 1.7.4), all reported in
+`Sim.settings()`:
 - on import taichi writes to ~/.cache/taichi and tries a network version check:
   TI_SKIP_VERSION_CHECK=ON is set before the import and the offline kernel cache is pointed at
   a temp directory (and left off: `compile_s` is then always a cold JIT, comparable run to run);
@@ -36,7 +37,8 @@ _RUNTIME: dict = {}
 
 def import_taichi():
     """Import taichi with the version check off (it writes ~/.cache/taichi and calls the
-    network otherwise, ENGINE_NOTES.md); its banner goes nowhere."""
+    network otherwise, docs/engine_notes.md#taichi-import-side-effects); its banner goes
+    nowhere."""
     os.environ["TI_SKIP_VERSION_CHECK"] = "ON"
     os.environ["TI_ENABLE_PYBUF"] = "0"
     with contextlib.redirect_stdout(io.StringIO()):

@@ -16,7 +16,9 @@ ONE kernel for every stepper and every N: the tableau is a runtime array argumen
 stage count and N are runtime shapes, so it compiles once per process (four kernels unrolled
 per stepper cost 0.2-0.45 s of JIT each). The time loop is the kernel's outermost loop,
 serialized (each stage needs every particle's positions), so the loops over particles and
-pairs inside it run serially on one thread (ENGINE_NOTES: only a kernel's outermost loop runs in parallel).
+pairs inside it run serially on one thread
+(docs/engine_notes.md#taichi-outermost-loop-runs-in-parallel: only a kernel's outermost loop
+runs in parallel).
 `velocities` alone, for checks and benchmarks, runs its loop over particles in parallel.
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """

@@ -2,7 +2,7 @@
 (compiling) calls, stepping in-kernel or one launch per step, and the settings every system
 reports.
 
-ENGINE_NOTES.md facts applied here (taichi 1.7.4):
+docs/engine_notes.md#taichi facts applied here (taichi 1.7.4):
 - one launch per step from Python costs about 29 us (measured here: 50-90 us, growing with the
   number of array arguments) against ~0.05 us per step inside a kernel: the default runs the
   loop in the kernel; the engine variant "launch_per_step" launches once per step and records
@@ -97,7 +97,8 @@ class KernelSim(Sim):
             out["per_step_python_call_us"] = self.launch_us
             out["per_step_python_call"] = (
                 "one kernel launch per step: its measured cost (per_step_python_call_us; "
-                "ENGINE_NOTES: about 29 us with taichi ndarrays) is part of step_s and includes "
+                "docs/engine_notes.md#taichi-kernel-launch-cost: about 29 us with taichi "
+                "ndarrays) is part of step_s and includes "
                 f"its {len(self.host_arrays)} numpy external arrays: {EXTERNAL_LAUNCH_COST}")
         else:
             out["per_step_python_call"] = "none (one launch per Sim.step(n) call)"

@@ -7,9 +7,9 @@ touch at t_c = (1 - sqrt(4 r^2 - b^2)) / (2 v) with unit normal n = (sqrt(4 r^2 
 / (2 r). Exact outcome of a frictionless impact with restitution e (Newton's law along n):
 j = (1 + e) m1 m2 / (m1 + m2) ((v1 - v2) . n), v1' = v1 - j/m1 n, v2' = v2 + j/m2 n.
 Head-on with v1 = 1, v2 = -1: equal masses give (-e, e); 1:3 gives (-2, 0) at e = 1 and
-(-1.25, -0.25) at e = 0.5 (ENGINE_NOTES.md). With friction, the tangential impulse follows
-the Coulomb stick/slide law for one impact of Guendelman, Bridson & Fedkiw, "Nonconvex rigid
-bodies with stacking", SIGGRAPH 2003.
+(-1.25, -0.25) at e = 0.5 (docs/engine_notes.md#exact-head-on-collision-outcomes). With
+friction, the tangential impulse follows the Coulomb stick/slide law for one impact of
+Guendelman, Bridson & Fedkiw, "Nonconvex rigid bodies with stacking", SIGGRAPH 2003.
 
 Observables and metrics: see `cases.contacts._impact` (`velocity` in m/s compared after the
 impact, `position_err`, `momentum_drift`, `penetration_max`, `energy_drift` against the exact
@@ -126,7 +126,8 @@ class SpherePairs(SingleImpactCase):
                 return 0.1 * (1 + e) * v, (
                     "soft (spring-damper) contact stating no calibration residual: the "
                     "restitution obtained from a damping ratio is approximate, +9 % to -10 % "
-                    "(ENGINE_NOTES.md), on a velocity change (1+e) v")
+                    "(docs/engine_notes.md#mujoco-no-restitution-parameter), on a velocity "
+                    "change (1+e) v")
             de = contact.restitution_residual
             restitution = de * mu * u_n * spread
             theta = u_t * (contact.duration_s + dt) / (2 * r)

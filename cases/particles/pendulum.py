@@ -1,7 +1,7 @@
 """Pendulum: a point mass on a rigid massless rod of length L, released from rest at theta0.
 
-Exact solution (ENGINE_NOTES.md; e.g. Lawden, Elliptic Functions and Applications, ch. 5): with
-m = sin^2(theta0/2) and w0 = sqrt(g/L),
+Exact solution (docs/engine_notes.md#exact-pendulum-solution-and-period; e.g. Lawden, Elliptic
+Functions and Applications, ch. 5): with m = sin^2(theta0/2) and w0 = sqrt(g/L),
   theta(t)  = 2 arcsin( sqrt(m) sn(K(m) - w0 t | m) ),
   theta'(t) = -2 sqrt(m) w0 cn(K(m) - w0 t | m),
 period 4 K(m) / w0. scipy's `ellipj`/`ellipk` take the parameter m = k^2; the argument is reduced

@@ -1,4 +1,5 @@
-"""Stability theory on the undamped oscillator x'' = -w^2 x, y = w dt (ENGINE_NOTES.md)."""
+"""Stability theory on the undamped oscillator x'' = -w^2 x, y = w dt
+(docs/engine_notes.md#exact-oscillator-stability-limits)."""
 import numpy as np
 import pytest
 

@@ -5,8 +5,9 @@ nbody_gravity.py `pair_accelerations`, softening included) is computed in numpy 
 current positions and handed to MuJoCo, one Python round trip per step (or per stage). Each
 particle is a free body (`<freejoint>`, qpos = (centre, quaternion): the position is stored as
 such, not as an offset), an explicit `<inertial>` with the scene's mass and diaginertia 1e-12
-(ENGINE_NOTES), no geoms, contacts off, gravity the scene's, every damping/armature 0 (MJCF
-defaults, nothing set), eulerdamp and autoreset off. Two formulations:
+(docs/engine_notes.md#mujoco-point-mass-inertia), no geoms, contacts off, gravity the scene's,
+every damping/armature 0 (MJCF defaults, nothing set), eulerdamp and autoreset off. Two
+formulations:
 
 - "" (xfrc_per_step): before every `mj_step`, `data.xfrc_applied` = m a(x_k) on each body (its
   centre of mass). MuJoCo holds xfrc_applied constant over the step, so RK4's four stages all

@@ -83,7 +83,9 @@ PARTICLE_SETTINGS = ("contacts", "inertia", "drag", "bodies", "armature", "frict
 
 def engine_energy(mj, model, data) -> float:
     """MuJoCo's own kinetic + potential energy of the current state."""
-    mj.mj_forward(model, data)  # ENGINE_NOTES: energy describes the state only after mj_forward
+    # docs/engine_notes.md#mujoco-energy-after-mj_forward: energy describes the state only
+    # after mj_forward
+    mj.mj_forward(model, data)
     mj.mj_energyPos(model, data)
     mj.mj_energyVel(model, data)
     return float(data.energy[0] + data.energy[1])

@@ -10,7 +10,7 @@ angular velocity (measured): world w is rotated into it at build. Stepped by Bul
 semi-implicit Euler (btMultiBody: joint velocities from the state at k with the gyroscopic term
 explicit in the bias force, then the joint quaternion by the new velocity, normalised).
 
-Facts applied (pybullet 3.2.7, ENGINE_NOTES.md; each reported in settings()):
+Facts applied (pybullet 3.2.7, docs/engine_notes.md#pybullet; each reported in settings()):
 - damping 0 (link linear/angular, joint), maxJointVelocity raised to infinity;
 - the spherical joint's default motor acts as friction: setJointMotorControlMultiDof with
   POSITION_CONTROL, gains 0 and force (0, 0, 0);

@@ -17,13 +17,13 @@ Orientation (both): exponential map q_{k+1} = exp(h w_{k+1} / 2) (x) q_k, normal
 |w| h > pi/4 the rotation per step is 2 atan(tan(pi/8) |w| h / (pi/4)) instead of |w| h (fixed
 in C++, reported in settings, not removable from pybullet).
 
-Facts applied (pybullet 3.2.7, ENGINE_NOTES.md): damping 0 (linear, angular); the multibody
-base clamps each component of v and w at maxJointVelocity = 100 (measured: 150 rad/s became
-100): raised to infinity; sleeping disabled; gravity and fixedTimeStep set, numSubSteps 0. A
-collision shape is needed (a maximal body without one is not simulated as a rigid body): a
-sphere of radius COLLISION_RADIUS with collisions filtered off (group and mask 0); mass and
-inertia set explicitly afterwards (the sphere's own inertia is never used). Bullet takes a
-diagonal inertia: the body frame is rotated to the principal axes (rigid_frames.py) and
+Facts applied (pybullet 3.2.7, docs/engine_notes.md#pybullet): damping 0 (linear, angular);
+the multibody base clamps each component of v and w at maxJointVelocity = 100 (measured:
+150 rad/s became 100): raised to infinity; sleeping disabled; gravity and fixedTimeStep set,
+numSubSteps 0. A collision shape is needed (a maximal body without one is not simulated as a
+rigid body): a sphere of radius COLLISION_RADIUS with collisions filtered off (group and mask
+0); mass and inertia set explicitly afterwards (the sphere's own inertia is never used). Bullet
+takes a diagonal inertia: the body frame is rotated to the principal axes (rigid_frames.py) and
 observations are converted back to the scene's body frame.
 Observables: x, v, q (scene body frame, (w, x, y, z)), w (world), and per body the extras
 orientation_defect (|q|^2 - 1 of Bullet's quaternion, before any normalisation here), energy

@@ -9,7 +9,8 @@ circle in the plane); each wall a static `Segment` (radius 0) along the wall's l
 WALL_HALF_LENGTH around its point. Chipmunk multiplies the two shapes' friction and elasticity
 per contact (cpArbiterUpdate): each shape gets sqrt(mu) (adapters.common.contacts), elasticity 0.
 Contact position correction off (space.collision_bias = 1, slop 0: the sphere adapter's
-setting), so positions move only with the velocities; 10 iterations (ENGINE_NOTES default).
+setting), so positions move only with the velocities; 10 iterations (the default:
+docs/engine_notes.md#pymunk-space-defaults).
 Step (cpSpaceStep): positions and angles drift with the old velocities, then gravity kicks the
 velocities and the contact impulses (normal, then Coulomb friction clamped to mu times the
 normal impulse) project them: drift-kick, first order, s_k = a h^2 k (k - 1) / 2.

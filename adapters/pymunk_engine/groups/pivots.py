@@ -7,8 +7,9 @@ that normal a principal axis of its world inertia (else the spin would need an o
 torque). Each body is a `pymunk.Body(mass, moment)` with the moment = the world inertia about the
 centre of mass across the plane (I_w[n, n], n the normal), and a `PivotJoint` from the static
 body at the anchor to the body point (world anchor - centre at angle 0, in the body's frame)
-with error_bias = 0 (ENGINE_NOTES: pymunk's default bias loses energy; 0 makes each step's bias
-velocity carry the whole gap -(gap)/h, src/cpPivotJoint.c). No shapes (nothing collides).
+with error_bias = 0 (docs/engine_notes.md#pymunk-joint-bias-loses-energy: pymunk's default bias
+loses energy; 0 makes each step's bias velocity carry the whole gap -(gap)/h,
+src/cpPivotJoint.c). No shapes (nothing collides).
 
 Step (cpSpaceStep, pymunk's own `symplectic_euler_dk`): positions and angles drift with the old
 velocities, then gravity kicks the velocities and the pivot's impulse (one 2x2 solve per joint,
@@ -171,8 +172,10 @@ class PymunkPivotSim(Sim):
                        "shapes": "none (nothing collides)"},
             "joints": {"type": "PivotJoint (static body at the anchor, body at the body point)",
                        "error_bias": [j.error_bias for j in self.joints],
-                       "fix": "error_bias = 0 (ENGINE_NOTES: pymunk's default bias loses "
-                              "energy); each step's bias velocity is -(gap)/h",
+                       "fix": "error_bias = 0 "
+                              "(docs/engine_notes.md#pymunk-joint-bias-loses-energy: "
+                              "pymunk's default bias loses energy); each step's bias "
+                              "velocity is -(gap)/h",
                        "max_bias": [str(j.max_bias) for j in self.joints],
                        "max_force": [str(j.max_force) for j in self.joints]},
             "orientation": "the body's angle about the plane's normal: q = exp(angle/2) (x) q0; "

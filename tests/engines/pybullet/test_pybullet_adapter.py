@@ -2,7 +2,8 @@
 order and stability limit, tolerances at the reference dt, settings and failure reporting.
 
 pybullet is imported here on purpose: CI must have every engine, so a missing package fails at
-import instead of skipping (ENGINE_NOTES.md facts were measured on pybullet 3.2.7).
+import instead of skipping (docs/engine_notes.md#pybullet facts were measured on pybullet
+3.2.7).
 """
 import json
 import math
@@ -69,7 +70,8 @@ AGREEMENT = {
 @pytest.mark.parametrize("label", AGREEMENT)
 def test_agrees_with_refsim_kick_drift(label):
     """Same dt, same method: positions and velocities agree to 1e-9 m and m/s at every 10th
-    step (ENGINE_NOTES: ~1e-13 once damping, clamp and motor are off)."""
+    step (docs/engine_notes.md#pybullet-default-velocity-damping: ~1e-13 once damping, clamp
+    and motor are off)."""
     scene, dt, steps = AGREEMENT[label]()
     sims = [ENGINE.build(scene, dt, SE),
             REFSIM.build(scene, dt, SE, "generalized" if scene.joints else "")]
@@ -217,14 +219,16 @@ def test_runner_row_with_timing_is_ok_first_order_and_timed():
 
 
 def test_speed_above_the_default_clamp_is_kept():
-    """Default multibody speed clamp is 100 m/s (ENGINE_NOTES): raised, a 150 m/s throw is
-    still exact to first order."""
+    """Default multibody speed clamp is 100 m/s
+    (docs/engine_notes.md#pybullet-multibody-speed-clamp): raised, a 150 m/s throw is still
+    exact to first order."""
     row = accuracy("free_fall", "default", "pybullet", SE, 1e-3, vx0=150.0, vz0=120.0)
     assert row["status"] == "ok" and (row["consistency"] == "consistent"), (row["err_max"], row["tolerance"])
 
 
 # ---------------------------------------------------------------------------------------------
-# 5. Settings report every ENGINE_NOTES fix; divergence is reported; bad input is a ValueError
+# 5. Settings report every docs/engine_notes.md fix; divergence is reported; bad input is a
+#    ValueError
 # ---------------------------------------------------------------------------------------------
 def _settings(name, variant="default"):
     scene, dt, _ = _case_scene(name, variant)

@@ -57,7 +57,8 @@ def test_free_fall_equals_refsim_drift_kick(variant):
 
 
 def test_free_fall_error_sign_is_drift_kick():
-    """ENGINE_NOTES: pymunk's z error is +g t dt / 2 (pybullet's kick-drift: -g t dt / 2)."""
+    """docs/engine_notes.md#pymunk-drift-kick-step: pymunk's z error is +g t dt / 2
+    (pybullet's kick-drift: -g t dt / 2)."""
     c, p = _params("free_fall", duration=1.0)
     sim = PYMUNK.build(c.scene(p), 1e-3, DK)
     sim.step(1000)
@@ -195,8 +196,9 @@ def test_reference_dt_within_tolerance(case, variant, engine_variant):
 
 
 def test_default_bias_is_not_drift_kick_euler():
-    """ENGINE_NOTES: pymunk's default PinJoint error_bias pulls the rod back with a dissipative
-    velocity correction each step: not the drift-kick Euler it names. Against that method's
+    """docs/engine_notes.md#pymunk-joint-bias-loses-energy: pymunk's default PinJoint
+    error_bias pulls the rod back with a dissipative velocity correction each step: not the
+    drift-kick Euler it names. Against that method's
     bound (0.0030 rad at the reference dt) it errs 0.0050 rad (measured): inconsistent."""
     c, p = _params("pendulum", "default")
     row = _job("pendulum", "default", c.reference_dt(p), "default_bias")
@@ -205,8 +207,9 @@ def test_default_bias_is_not_drift_kick_euler():
 
 
 def test_default_bias_costs_accuracy_at_large_amplitude():
-    """ENGINE_NOTES: pymunk's default PinJoint bias loses energy. At theta0 = 2.5 over 10 s
-    (dt = 1e-3) it is off by about 0.6 rad, error_bias = 0 by 3e-3 rad."""
+    """docs/engine_notes.md#pymunk-joint-bias-loses-energy: pymunk's default PinJoint bias
+    loses energy. At theta0 = 2.5 over 10 s (dt = 1e-3) it is off by about 0.6 rad,
+    error_bias = 0 by 3e-3 rad."""
     rows = {ev: _job("pendulum", "default", 1e-3, ev, theta0=2.5) for ev in ("", "default_bias")}
     assert rows["default_bias"]["err_max"] > 10 * rows[""]["err_max"]
     assert rows["default_bias"]["energy_drift"] > 10 * rows[""]["energy_drift"]

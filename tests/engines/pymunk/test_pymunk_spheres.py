@@ -49,7 +49,8 @@ def _run(variant, dt=1e-3, **over):
 def test_head_on_outcome_is_exact(variant, expected, dt):
     """Head-on, the normal is along x however deep the overlap at detection, and one impulse
     pass sets the normal relative velocity to -e times its value before the step: Newton's
-    law exactly (ENGINE_NOTES' values), within the case's 1e-9 impulse tolerance (measured 0)."""
+    law exactly (the values of docs/engine_notes.md#exact-head-on-collision-outcomes), within
+    the case's 1e-9 impulse tolerance (measured 0)."""
     row = _run(variant, dt)
     assert row["status"] == "ok" and (row["consistency"] == "consistent"), row["reason"]
     assert row["err_max"] <= 1e-12

@@ -57,8 +57,9 @@ def test_observation_follows_the_contract(engine, formulation, integrator):
 
 
 def test_symplectic_euler_free_fall_is_the_exact_discrete_sum(engine):
-    """ENGINE_NOTES: z_k = z0 + k dt v0 - k(k+1)/2 dt^2 g under semi-implicit Euler; a few
-    roundings per step of O(1) numbers: 1e-12 m over 100 steps is k x 40 eps of a 3 m scale."""
+    """docs/engine_notes.md#exact-free-fall-under-each-stepper: z_k = z0 + k dt v0
+    - k(k+1)/2 dt^2 g under semi-implicit Euler; a few roundings per step of O(1) numbers:
+    1e-12 m over 100 steps is k x 40 eps of a 3 m scale."""
     scene, dt, k = rigid_scene(), 0.01, 100
     sim = engine.build(scene, dt, "symplectic_euler", "quat_exp")
     sim.step(k)

@@ -86,7 +86,8 @@ def test_agrees_with_refsim_to_round_off(case, variant, integrator):
 
 
 def test_free_fall_is_the_exact_kick_drift_sequence():
-    """ENGINE_NOTES: kick-drift z_k = z0 + k dt v0 - k(k+1)/2 dt^2 g."""
+    """docs/engine_notes.md#exact-free-fall-under-each-stepper: kick-drift
+    z_k = z0 + k dt v0 - k(k+1)/2 dt^2 g."""
     c, p = _params("free_fall", duration=1.0)
     sim = TAICHI.build(c.scene(p), 1e-3, SE)
     sim.step(1000)
@@ -164,10 +165,11 @@ def test_reference_dt_within_tolerance(case, variant, integrator):
 @pytest.mark.parametrize("case, over", [("free_fall", {}), ("stiff_spring", {}),
                                         ("pendulum", {"duration": 2.0})])
 def test_launch_per_step_variant_same_answer_at_launch_cost(case, over):
-    """ENGINE_NOTES: a launch per step costs about 29 us (more on a busy 2-core box), a step
-    inside the kernel well under 1 us: same numbers, and the variant declares its per-step
-    Python call. (The time ratio itself is a speed figure: timed unit tests are not kept,
-    since on a loaded machine the in-kernel loop measured 140 us a step and the ratio failed.)"""
+    """docs/engine_notes.md#taichi-kernel-launch-cost: a launch per step costs about 29 us
+    (more on a busy 2-core box), a step inside the kernel well under 1 us: same numbers, and
+    the variant declares its per-step Python call. (The time ratio itself is a speed figure:
+    timed unit tests are not kept, since on a loaded machine the in-kernel loop measured 140 us
+    a step and the ratio failed.)"""
     c, p = _params(case, **over)
     dt = c.reference_dt(p)
     loop = _job(case, "default", SE, dt, **over)

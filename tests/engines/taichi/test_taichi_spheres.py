@@ -21,8 +21,9 @@ from refsim.testing import accuracy
 
 SE = "symplectic_euler"
 TAICHI = get_engine("taichi")
+# docs/engine_notes.md#exact-head-on-collision-outcomes
 HEAD_ON = {"head_on": (-1.0, 1.0), "head_on_e0.5": (-0.5, 0.5),
-           "head_on_1to3": (-2.0, 0.0), "head_on_1to3_e0.5": (-1.25, -0.25)}  # ENGINE_NOTES
+           "head_on_1to3": (-2.0, 0.0), "head_on_1to3_e0.5": (-1.25, -0.25)}
 PAIRS = list(HEAD_ON) + ["oblique", "oblique_friction"]
 import_taichi()  # CI must have every engine: fail here, not skip
 
