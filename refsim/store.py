@@ -24,6 +24,11 @@ JOURNAL = "rows.jsonl"
 SERIES = "series.jsonl"
 DEFINITIONS = "cases.json"  # each case x variant x parameters as run (Case.definition)
 KEY = ["case", "variant", "engine", "engine_variant", "integrator", "dt"]
+# The stored run's format, stamped in manifest.json ("format"). 2: the two verdicts
+# (consistency, reaches_target) and call_us. A run without a stamp is format 1: stored before
+# formats were stamped; its columns say what it holds (within_tol and unresolved are read as
+# the consistency verdict by refsim.verdicts.upgrade_table). A newer format is refused.
+FORMAT = 2
 
 
 def new_run_id() -> str:
@@ -55,7 +60,7 @@ class RunStore:
         store = cls(Path(root) / manifest["run_id"])
         if store.dir.exists():
             raise ValueError(f"run directory {store.dir} already exists")
-        store.write_manifest(manifest)
+        store.write_manifest({"format": FORMAT, **manifest})
         return store
 
     @classmethod
@@ -173,7 +178,18 @@ TEXT_COLUMNS = ("run_id", "case", "variant", "engine", "engine_variant", "integr
                 "consistency_reason", "reaches_target", "order_note")
 
 
+def run_format(run_dir: Path) -> int:
+    """The stored run's format (1 when unstamped); ValueError for one newer than FORMAT."""
+    path = Path(run_dir) / "manifest.json"
+    found = json.loads(path.read_text()).get("format", 1) if path.is_file() else 1
+    if not (isinstance(found, int) and 1 <= found <= FORMAT):
+        raise ValueError(f"run format must be 1..{FORMAT} (this refsim's), {run_dir} has "
+                         f"{found!r}: open it with the refsim that wrote it")
+    return found
+
+
 def load_results(run_dir: Path) -> pd.DataFrame:
+    run_format(run_dir)
     table = pd.read_csv(Path(run_dir) / "results.csv", keep_default_na=False,
                         na_values=["nan"])
     for col in [c for c in table.columns if c not in TEXT_COLUMNS

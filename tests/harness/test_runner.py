@@ -326,3 +326,20 @@ def test_energy_behaviour_is_not_read_from_aliased_samples():
     t = np.linspace(0.0, 100.0, 401)
     aliased = 1.0 + 0.3 * np.sin(2 * np.pi * 1.01 * t) ** 2
     assert energy_reason(t, aliased - 0.01 * t, 1.0, 1.0, 10**4) is None
+
+
+def test_stored_runs_carry_their_format_and_a_newer_one_is_refused(tmp_path):
+    """A new run's manifest says format FORMAT; an unstamped run is format 1 and opens; a
+    format this refsim does not know is refused with a one-line reason."""
+    import json
+
+    from refsim.store import FORMAT, RunStore, run_format
+    st = RunStore.create(tmp_path, {"run_id": "r1"})
+    assert st.manifest["format"] == FORMAT and run_format(st.dir) == FORMAT
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "manifest.json").write_text(json.dumps({"run_id": "old"}))
+    assert run_format(old) == 1
+    (old / "manifest.json").write_text(json.dumps({"run_id": "old", "format": FORMAT + 1}))
+    with pytest.raises(ValueError, match="run format must be"):
+        run_format(old)
