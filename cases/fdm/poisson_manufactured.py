@@ -1,6 +1,7 @@
-"""The 5-point (3D: 7-point) Poisson equation with a manufactured solution (slide 001; MODELS.md
-sec. 3): u = sin(pi x) sin(pi y) on the unit square (3D: times sin(pi z) on the unit cube),
-f = lap u = -d pi^2 u, u = 0 on the boundary, N points a side, h = 1 / (N - 1).
+"""The 5-point (3D: 7-point) Poisson equation with a manufactured solution (slide 001;
+docs/models.md#fdm-exact-discrete-poisson-solution): u = sin(pi x) sin(pi y) on the unit square
+(3D: times sin(pi z) on the unit cube), f = lap u = -d pi^2 u, u = 0 on the boundary, N points
+a side, h = 1 / (N - 1).
 
 Exact discrete solution. u is an eigenvector of the discrete Laplacian: per axis the 3-point
 second difference of sin(pi x_j) is -(4 / h^2) sin^2(pi h / 2) sin(pi x_j) (GridLaplacian's

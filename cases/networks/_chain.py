@@ -1,12 +1,13 @@
 """The exact discrete equilibrium of a hanging chain of point masses on elastic links, and its
-continuum limit, the catenary (MODELS.md section 2).
+continuum limit, the catenary (docs/models.md#springs-hanging-chain).
 
 Links i = 0..N-1 join nodes i and i + 1; nodes 0 and N are pinned at (0, 0) and (S, 0) in the
 x-z plane; the free nodes 1..N-1 carry weights w_j = m_j g. Link i pulls node i towards i + 1
 with the tension vector t_i = (H, V_i); node j's balance t_j - t_{j-1} + (0, -w_j) = 0 gives
 a constant horizontal tension H and V_i = V0 + sum_{j<=i} w_j (V0 < 0: the first link points
 down). Link i has tension T_i = sqrt(H^2 + V_i^2) and length l0 + T_i / k = l0 (1 + T_i / EA)
-(k in N/m, EA = k l0 in N: MODELS.md's "l0 (1 + T_i / k)" has k in N) along t_i / T_i:
+(k in N/m, EA = k l0 in N: the "l0 (1 + T_i / k_s)" of docs/models.md#springs-hanging-chain
+has k_s = EA in N) along t_i / T_i:
     d_i = (l0 / T_i + 1 / k) (H, V_i)      (k = inf: inextensible).
 The two unknowns (H, V0) close the chain: sum d_i = (S, 0). `chain_equilibrium` solves that by
 bisection on H (sum d_x is increasing in H) at the symmetric V0, then Newton on both with the

@@ -1,6 +1,6 @@
 """Hair cantilever: a chain of hinge springs clamped at its root, bent by gravity (slide 002's
-bending springs; MODELS.md sec. 2), settled by air drag to its static equilibrium, against the
-EXACT DISCRETE equilibrium of the same chain.
+bending springs; docs/models.md#springs-bending-and-cantilever), settled by air drag to its
+static equilibrium, against the EXACT DISCRETE equilibrium of the same chain.
 
 Scene (x-z plane, gravity -z): nodes 0 (x = -l) and 1 (x = 0) pinned (the clamped root), N free
 links of rest length l = L / N along +x (nodes 2..N+1), stretch springs k_s (N/m) on every

@@ -1,5 +1,6 @@
 """Hanging chain: N elastic links between two pins at the same height, settling under gravity
-and air drag to its EXACT DISCRETE static equilibrium (slides 000-002; MODELS.md section 2).
+and air drag to its EXACT DISCRETE static equilibrium (slides 000-002;
+docs/models.md#springs-hanging-chain).
 
 Chain: N + 1 nodes in the x-z plane (y = 0), nodes 0 and N pinned at (0, 0, 0) and (S, 0, 0);
 the chain of length L and mass M has links of rest length l0 = L / N and stiffness

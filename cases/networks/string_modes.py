@@ -1,5 +1,5 @@
 """Pretensioned string (and square membrane) of point masses on ZERO rest-length springs: a
-normal mode released from rest (slides 000/001; MODELS.md section 2).
+normal mode released from rest (slides 000/001; docs/models.md#springs-string-and-membrane-modes).
 
 String: N free nodes of mass m at x_j = j l (j = 1..N) between pinned ends x_0 = 0 and
 x_{N+1} = (N + 1) l, joined by springs of stiffness k (N/m) and rest length 0. A zero

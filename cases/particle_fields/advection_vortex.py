@@ -1,5 +1,6 @@
 """Advection of massless particles in a rigid vortex (slide 003: "advection of massless
-particles ... millions to billions of particles ... pleasantly parallel"; MODELS.md sec. 6).
+particles ... millions to billions of particles ... pleasantly parallel";
+docs/models.md#fields-vortex-radius-per-step).
 
 p' = Omega x (p - c): every particle turns about the axis through c along Omega at |Omega|
 rad/s, keeping its distance from the axis. Compared observable `x_error`: max over particles of

@@ -1,6 +1,7 @@
 """Figure-eight three-body choreography (Chenciner & Montgomery, Annals of Mathematics 152
-(2000) 881; initial conditions of Simo, as quoted in MODELS.md sec. 6): three equal masses
-(G = m = 1) chase each other around one figure-eight curve in the x-y plane (z = 0); run with
+(2000) 881; initial conditions of Simo, as quoted in
+docs/models.md#fields-kepler-and-figure-eight): three equal masses (G = m = 1) chase each other
+around one figure-eight curve in the x-y plane (z = 0); run with
 m = 2 kg, G = 0.5 (G m = 1, the same orbit: a missing mass or G factor shows):
 x1 = -x2 = (0.97000436, -0.24308753), x3 = 0, v3 = (-0.93240737, -0.86473146),
 v1 = v2 = -v3 / 2, period T = 6.32591398. Variants: `one_period` (default) and

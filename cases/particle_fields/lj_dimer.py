@@ -1,7 +1,8 @@
 """Lennard-Jones dimer: two atoms of mass m, released from rest at the separation r0 + A, where
 r0 = 2^(1/6) sigma is the minimum of U(r) = 4 eps ((sigma/r)^12 - (sigma/r)^6). No cut-off.
 
-Small vibrations (MODELS.md sec. 6): k = U''(r0) = 4 eps (156 sigma^12/r0^14 - 42 sigma^6/r0^8)
+Small vibrations (docs/models.md#fields-lennard-jones-dimer):
+k = U''(r0) = 4 eps (156 sigma^12/r0^14 - 42 sigma^6/r0^8)
 = (72 eps / r0^2) (156/4 - 42/2) / 18 = 72 eps / r0^2 = 36 2^(2/3) eps / sigma^2 = 57.146
 eps/sigma^2 (at r0: (sigma/r0)^6 = 1/2); the relative coordinate r moves with the reduced mass
 mu = m/2, so w0 = sqrt(k / mu) = sqrt(2 k / m).

@@ -4,8 +4,9 @@ Moments about the centre of mass I1 = I2 != I3 (body axis 3 the symmetry axis); 
 mass at distance l along body axis 3 from the tip (the pivot, `RigidPivots`). About the pivot
 I1' = I1 + M l^2 (parallel axis), I3' = I3. Released tilted by `tilt` from the vertical (a
 rotation about world x), spinning at w3 about its own axis, with no precession.
-Sleeping top (MODELS.md sec. 1; Goldstein, Classical Mechanics, sec. 5.7): the upright top is
-stable iff I3^2 w3^2 > 4 I1' M g l, i.e. w3 > w3c = 2 sqrt(I1' M g l) / I3 (`sleeping_threshold`);
+Sleeping top (docs/models.md#rigid-sleeping-top; Goldstein, Classical Mechanics, sec. 5.7): the
+upright top is stable iff I3^2 w3^2 > 4 I1' M g l, i.e. w3 > w3c = 2 sqrt(I1' M g l) / I3
+(`sleeping_threshold`);
 `spin_ratio` = w3 / w3c. Linearised about the upright, the tilt (complex, x + i y of e3) is a sum
 of two circular modes Omega_pm = Omega_c (r +- sqrt(r^2 - 1)), Omega_c = sqrt(M g l / I1'):
 released from rest it reaches theta0 r / sqrt(r^2 - 1) for r > 1 and grows like

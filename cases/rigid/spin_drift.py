@@ -6,8 +6,8 @@ on a world axis). Then I w is parallel to w, w x (I w) = 0: w stays constant exa
 orientation is q(t) = exp(t w / 2) (x) q0 (a rotation by angle |w| t about w). Compared
 observable `angle_error`: the angle (rad) of the rotation between the observed and the exact
 orientation; `w_error` = |w(t) - w0| (rad/s) should stay at round-off.
-Exact discrete oracles (MODELS.md sec. 1), at constant w and y = h |w|, per step of a
-one-stage (semi-implicit Euler) orientation update:
+Exact discrete oracles (docs/models.md#rigid-orientation-defect-per-step), at constant w and
+y = h |w|, per step of a one-stage (semi-implicit Euler) orientation update:
 - matrix as printed, R_{k+1} = (I + h [w]_x) R_k: det R_k = (1 + y^2)^k (I + h [w]_x is
   sqrt(1 + y^2) times a rotation by atan(y) in the plane normal to w, 1 along w);
 - quaternion Euler step, q + (h/2) (0, w) (x) q = (1, (h/2) w) (x) q: |q|^2 grows by

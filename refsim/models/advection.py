@@ -10,8 +10,9 @@ over (..., n, 3) (any leading batch axes), `linear`, `jacobian`. Exact discrete 
 - rigid vortex, y = |Omega| h: in the plane normal to Omega the step multiplies the complex
   coordinate by R(i y): the radius grows by |R(i y)| a step and turns by arg R(i y)
   (`vortex_radius_factor`, `vortex_step_angle`); along Omega nothing moves. Closed forms
-  (MODELS.md sec. 6): forward Euler sqrt(1 + y^2); any two-stage second-order method (midpoint,
-  Heun, Ralston) sqrt(1 + y^4/4); RK4 sqrt(1 - y^6/72 + y^8/576); implicit Euler 1/sqrt(1 + y^2);
+  (docs/models.md#fields-vortex-radius-per-step): forward Euler sqrt(1 + y^2); any two-stage
+  second-order method (midpoint, Heun, Ralston) sqrt(1 + y^4/4); RK4 sqrt(1 - y^6/72 +
+  y^8/576); implicit Euler 1/sqrt(1 + y^2);
 - quadratic descent: per axis p_k - c = R(-h lambda)^k (p_0 - c): forward Euler's (1 - h
   lambda)^k, stable iff |1 - h lambda| < 1, i.e. h < 2/lambda; implicit Euler 1/(1 + h lambda).
 The continuum: p(t) = c + expm(t M) (p_0 - c) (`exact_positions`, exp(t lambda) per mode).

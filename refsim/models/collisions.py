@@ -224,7 +224,8 @@ def time_of_impact(dx, dv, reach, h):
 
 
 def hard_sphere_seed(v, x, masses, i, j):
-    """The slide's hard-sphere update, exactly as printed (seeds/000, "Particles: Hard sphere"):
+    """The slide's hard-sphere update, exactly as printed (deck 000,
+    docs/sources.md#deck-000-physically-based-animation-mpri-2-39, slide "Particles: Hard sphere"):
 
         v1' = v1 + 1/(m1+m2) [ m2 <v2,u> - 1/2 (m1 + 3 m2) <v1,u> ] u
         v2' = v2 + 1/(m1+m2) [ m1 <v1,u> - 1/2 (m2 + 3 m1) <v2,u> ] u,   u = x1 - x0

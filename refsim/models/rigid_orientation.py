@@ -10,7 +10,8 @@ the world angular velocity acting on the LEFT (R' = [w]_x R, q' = 1/2 (0, w) (x)
     matrix_printed   R (9):        R' = R + [phi]_x R                   (the slides, no repair)
     matrix_polar     R (9):        R' = polar(R + [phi]_x R)           (SVD: U V^T)
 
-Orientation defect (`defect`), what each formulation leaves or hides (MODELS.md section 1):
+Orientation defect (`defect`), what each formulation leaves or hides
+(docs/models.md#rigid-orientation-defect-per-step):
 quat_exp |q|^2 - 1; quat_normalised the cumulative squared norm removed by normalising,
 prod_k |q~_k|^2 - 1 = expm1(log c) (renormalisation hides it; it is carried in the fifth
 column so that it is a function of the state, correct under any stepper: stage updates start

@@ -38,8 +38,9 @@ def test_not_in_second_order_list_and_names():
 
 @pytest.mark.parametrize("name", FIRST_ORDER)
 def test_stability_closed_forms(name):
-    """|R(iy)| as MODELS.md prints it (and 1/sqrt(1 + y^2) for implicit Euler); checked to a
-    few eps: the polynomial is summed in floating point (<= 5 terms of size <= 1.1)."""
+    """|R(iy)| as docs/models.md#fields-vortex-radius-per-step prints it (and 1/sqrt(1 + y^2)
+    for implicit Euler); checked to a few eps: the polynomial is summed in floating point
+    (<= 5 terms of size <= 1.1)."""
     y = np.linspace(0.0, 1.5, 31)
     closed = {"explicit_euler": np.sqrt(1 + y ** 2), "implicit_euler": 1 / np.sqrt(1 + y ** 2),
               "rk4": np.sqrt(1 - y ** 6 / 72 + y ** 8 / 576)}.get(name, np.sqrt(1 + y ** 4 / 4))

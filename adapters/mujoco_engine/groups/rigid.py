@@ -10,7 +10,8 @@ Facts (mujoco 4.0.0, measured; reported in `Sim.settings()`):
 - MuJoCo's free joint integrates the orientation by the exponential map of the body-frame
   angular velocity and normalises the stored quaternion after every position update (unless
   ||q| - 1| <= mjMINVAL = 1e-15), so `orientation_defect` = |q|^2 - 1 of qpos stays within
-  2e-15 + round-off: the renormalisation hides any drift (MODELS.md); observed to show it;
+  2e-15 + round-off: the renormalisation hides any drift (docs/models.md#rigid-mujoco-free-joint);
+  observed to show it;
 - it refuses an inertia whose principal moments violate A + B >= C ("use balanceinertia"):
   refused here with the reason rather than balanced (balancing changes the body);
 - the free joint's qvel angular part is in the body frame: the scene's world-frame w is rotated
@@ -21,9 +22,10 @@ Integrators (`rigid_methods`), measured on the torque-free asymmetric top (tests
 - RK4: order 4 on body w, q and world w; conserves |L| and E to its truncation error;
 - implicit and implicitfast: the same step on free bodies (mujoco >= 3.11 applies the
   gyroscopic derivative of a standalone free body in implicitfast too, changelog 3.11.0;
-  MODELS.md's "implicitfast drops the gyroscopic terms" predates it): linearised backward Euler
-  on the gyroscopic term, so |L| and E DECAY at the rate Euler gains them (the tumbling is
-  damped, not the spin about a principal axis).
+  the description of implicitfast as dropping the gyroscopic terms
+  (docs/models.md#rigid-mujoco-free-joint) predates it): linearised backward Euler on the
+  gyroscopic term, so |L| and E DECAY at the rate Euler gains them (the tumbling is damped, not
+  the spin about a principal axis).
 """
 from __future__ import annotations
 

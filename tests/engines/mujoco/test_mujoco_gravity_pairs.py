@@ -8,7 +8,8 @@ Kepler: G = 1, a = 1, masses summing to M = 1, so the exact period is 2 pi a^1.5
 Euler's O(h) phase error cancels at the period (the O(h) conjugacy of symplectic Euler to
 Verlet changes the energy only through v . grad U, which is 0 at an apsis) and its return error
 falls at order 2 (measured 2.00), hiding the method's order.
-Figure-eight: Chenciner-Montgomery (MODELS.md 6), G = m = 1, period 6.32591398.
+Figure-eight: Chenciner-Montgomery (docs/models.md#fields-kepler-and-figure-eight), G = m = 1,
+period 6.32591398.
 mujoco is imported on purpose: CI must have every engine (fail, never skip).
 """
 import gravity_scenes

@@ -6,7 +6,8 @@ orbits.
 Kepler: G = 1, a = 1, masses summing to M = 1: exact period 2 pi a^1.5 / sqrt(G M) = 2 pi,
 started at true anomaly pi/2 (at an apsis symplectic Euler's return error falls at order 2,
 measured 2.00, hiding its order 1: see tests/engines/mujoco/test_mujoco_gravity_pairs.py).
-Figure-eight: Chenciner-Montgomery (MODELS.md 6), G = m = 1, period 6.32591398.
+Figure-eight: Chenciner-Montgomery (docs/models.md#fields-kepler-and-figure-eight), G = m = 1,
+period 6.32591398.
 pybullet is imported on purpose: CI must have every engine (fail, never skip).
 """
 import gravity_scenes
