@@ -118,9 +118,11 @@ LEGEND = ("Each cell answers two questions. *Target*: does any configuration of 
           "best error and where. *Method*: does each row behave as the method it names (rk4 "
           "as RK4) at its dt: its error within the bound a correct implementation of that "
           "method must meet there (the exact discrete solution where the case has one), the "
-          "state at t = 0 exact, the fitted order not below the method's? `consistent`, "
+          "state at t = 0 exact, the fitted order not below the method's, and a symplectic "
+          "method's energy error bounded on a conservative scene? `consistent`, "
           "`inconsistent` (with the first reason), `unresolved` (the method's bound is not "
-          "below half the motion at that dt: no verdict), `no method reference` (the engine's "
+          "below half the motion at that dt, or the case states none: no verdict), "
+          "`no method reference` (the engine's "
           "own scheme: only the target question is answered). In the heatmap the colour is "
           "log10(best error / target) (green: below the target) and the word the target "
           "answer; the second line counts the inconsistent rows.")
