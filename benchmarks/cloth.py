@@ -184,7 +184,7 @@ def summary(own_rows, tai_rows):
 
 def main(quick: bool = False) -> list[dict]:
     sizes = (30, 50, 100) if quick else (50, 100, 200, 300)
-    from adapters.taichi_engine.runtime import effective_config
+    from refsim_adapters.taichi_engine.runtime import effective_config
     print(f"threads: numpy/scipy 1; taichi cpu_max_num_threads = "
           f"{effective_config()['cpu_max_num_threads']}; times: best of repeats after a "
           "warm-up (3 below n = 200, else 1)")

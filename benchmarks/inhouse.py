@@ -89,7 +89,7 @@ def scipy_trajectory(rtol):
 
 
 def _error(theta):
-    from cases.particles.pendulum import exact_pendulum
+    from refsim_cases.particles.pendulum import exact_pendulum
     return float(np.max(np.abs(theta - exact_pendulum(THETA0, W0, _samples())[0])))
 
 

@@ -1,6 +1,6 @@
 """All-pairs gravity throughput: refsim's numpy `pair_accelerations` against taichi's float64
-kernel (`adapters.taichi_engine.gravity_kernels.accelerations`), one acceleration evaluation of
-n random bodies (softening 0.01). `all_pairs_rows` is called by the particle_fields bench (not
+kernel (`refsim_adapters.taichi_engine.gravity_kernels.accelerations`), one acceleration
+evaluation of n random bodies (softening 0.01). `all_pairs_rows` is called by the particle_fields bench (not
 registered here).
 
 Pair interactions per evaluation: n (n - 1), the ordered pairs (i, j) both engines evaluate
@@ -36,9 +36,9 @@ def _best(call, repeats):
 
 
 def _taichi_accel(x, masses):
-    from adapters.taichi_engine import gravity_kernels as gk
-    from adapters.taichi_engine.kernel_store import to_ndarray
-    from adapters.taichi_engine.runtime import runtime
+    from refsim_adapters.taichi_engine import gravity_kernels as gk
+    from refsim_adapters.taichi_engine.kernel_store import to_ndarray
+    from refsim_adapters.taichi_engine.runtime import runtime
     xs, a = to_ndarray(x), to_ndarray(np.zeros_like(x))
     pack = gk.gravity_t(mass=to_ndarray(masses), G=1.0, eps2=SOFTENING ** 2)
     ti = runtime()["ti"]

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import importlib
 
-from benchmarks.lennard_jones import cost_exponent, lj_rows
+from refsim_benchmarks.lennard_jones import cost_exponent, lj_rows
 
 GOALS = {"exponent": 1.2, "ratio": 1.0 / 3.0}
 
@@ -24,9 +24,9 @@ GOALS = {"exponent": 1.2, "ratio": 1.0 / 3.0}
 def gravity_rows(n_values, quick):
     """The nbody helper's rows, or None when benchmarks.nbody is not in this checkout."""
     try:
-        nbody = importlib.import_module("benchmarks.nbody")
+        nbody = importlib.import_module("refsim_benchmarks.nbody")
     except ModuleNotFoundError as exc:
-        if exc.name != "benchmarks.nbody":
+        if exc.name != "refsim_benchmarks.nbody":
             raise
         return None
     return nbody.all_pairs_rows(n_values, quick)
@@ -114,7 +114,7 @@ def row_figures(rows, label):
 def threads_line() -> str:
     """The threads each engine runs on, from taichi's own config where it imports."""
     try:
-        from adapters.taichi_engine.runtime import effective_config
+        from refsim_adapters.taichi_engine.runtime import effective_config
         taichi = effective_config()["cpu_max_num_threads"]
     except ImportError:
         return "threads: numpy 1; taichi not available"

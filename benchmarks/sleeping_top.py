@@ -1,5 +1,5 @@
 """`refsim bench sleeping_top [--quick]`: the sleeping-top threshold I3^2 w3^2 > 4 I1' M g l
-found by a sweep on every engine that runs the heavy top (`cases.rigid.heavy_top`), side by
+found by a sweep on every engine that runs the heavy top (`refsim_cases.rigid.heavy_top`), side by
 side with the theory.
 
 For every engine x formulation x fixed-step integrator that runs a pivoted top, at dt = 1e-2
@@ -46,14 +46,14 @@ UNITS = "w3 / w3c"
 
 def base_params() -> dict:
     """The heavy top's sleeping_stable parameters at the sweep's release tilt."""
-    from cases.rigid.heavy_top import CASE
+    from refsim_cases.rigid.heavy_top import CASE
     return CASE.variant_params("sleeping_stable", {"tilt": TILT})
 
 
 def look_times(dt: float, p: dict | None = None) -> np.ndarray:
     """Omega_c t at find_threshold's checks: every `chunk` steps (a quarter radian of Omega_c)
     until the time passes PERIODS periods 2 pi / Omega_c, as its loop steps."""
-    from cases.rigid.heavy_top import threshold_rate
+    from refsim_cases.rigid.heavy_top import threshold_rate
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"sleeping_top dt must be a finite number > 0, got {dt}")
     rate = threshold_rate(p or base_params())
@@ -71,7 +71,7 @@ def exact_times(samples: int = 20001) -> np.ndarray:
 def linear_threshold(omega_c_t) -> float:
     """The spin ratio at which the linearised top's tilt, seen at times `omega_c_t`, stays
     below FACTOR times its start: the closed form bisected in WINDOW to LINEAR_RESOLUTION."""
-    from cases.rigid.heavy_top import linear_tilt_ratio
+    from refsim_cases.rigid.heavy_top import linear_tilt_ratio
     low, high = WINDOW
     while high - low > LINEAR_RESOLUTION:
         mid = 0.5 * (low + high)
@@ -83,14 +83,14 @@ def linear_threshold(omega_c_t) -> float:
 def agreement_bound(order: float, dt: float, p: dict | None = None) -> float:
     """|r_found - r_look| allowed (module docstring): resolution / 2 + (factor tilt)^2 +
     (w3c dt)^order + the closed form's resolution."""
-    from cases.rigid.heavy_top import sleeping_threshold
+    from refsim_cases.rigid.heavy_top import sleeping_threshold
     w3c = sleeping_threshold(p or base_params())
     return RESOLUTION / 2 + (FACTOR * TILT) ** 2 + (w3c * dt) ** order + LINEAR_RESOLUTION
 
 
 def _find(engine, integrator, dt, variant):
     """(r found, window used, note): NaN and the reason where neither window brackets it."""
-    from cases.rigid.heavy_top import find_threshold
+    from refsim_cases.rigid.heavy_top import find_threshold
     for low, high in (WINDOW, WIDE_WINDOW):
         try:
             found = find_threshold(engine, integrator, dt, variant, low=low, high=high,
@@ -110,7 +110,7 @@ def threshold_figure(engine_name: str, variant: str, integrator: str, dt: float)
     t0 = time.perf_counter()
     found, window, note = _find(engine, integrator, dt, variant)
     elapsed = time.perf_counter() - t0
-    from cases.rigid.heavy_top import CASE
+    from refsim_cases.rigid.heavy_top import CASE
     sim = engine.build(CASE.scene(p), dt, integrator, variant)
     order = float(sim.settings()["integrator"]["order"])
     sim.close()
@@ -131,7 +131,7 @@ def threshold_figure(engine_name: str, variant: str, integrator: str, dt: float)
 def sweep_plan(quick: bool):
     """([(engine, variant, integrator, dt)], [(engine, reason)]) over every available engine
     that runs the top, fixed-step integrators only."""
-    from cases.rigid.heavy_top import CASE
+    from refsim_cases.rigid.heavy_top import CASE
     from refsim.case import adaptive_rtol
     from refsim.registry import get_engine
     scene = CASE.scene(base_params())
@@ -153,7 +153,7 @@ def sweep_plan(quick: bool):
 
 
 def print_figures(figures, skipped) -> None:
-    from cases.rigid.heavy_top import sleeping_threshold
+    from refsim_cases.rigid.heavy_top import sleeping_threshold
     p = base_params()
     r_exact = linear_threshold(exact_times())
     print(f"sleeping top: w3c = 2 sqrt(I1' M g l) / I3 = {sleeping_threshold(p):.4f} rad/s; "

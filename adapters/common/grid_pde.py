@@ -83,7 +83,7 @@ def field_name(grid) -> str:
 def grid_refusal(engine: str, what: str):
     """A group for an engine without a grid/PDE solver: it claims every grid scene (heat, wave,
     Poisson) only to refuse it with the reason (adapters/common/refusing_group.py)."""
-    from adapters.common.refusing_group import refusing_group
+    from refsim_adapters.common.refusing_group import refusing_group
     return refusing_group(
         f"{engine} has no finite-difference grid solver ({what}); the heat, wave and Poisson "
         "grids run on refsim and taichi", name="grid_refused",

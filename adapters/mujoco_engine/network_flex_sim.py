@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapters.common.spring_network import observation
+from refsim_adapters.common.spring_network import observation
 
 from .network_flex import (
     FLEX_NAME,

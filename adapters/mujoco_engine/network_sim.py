@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from adapters.common.spring_network import free_mask, observation
+from refsim_adapters.common.spring_network import free_mask, observation
 
 from .network_mjcf import SOLVER_ITERATIONS, SOLVER_TOLERANCE, kept_edges, network_xml
 from .point_masses import POINT_INERTIA

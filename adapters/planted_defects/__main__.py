@@ -1,6 +1,6 @@
-"""python -m adapters.planted_defects [--defect NAME ...] [--case NAME ...] [--quick]
-[--workers N] [--out CSV]: runs each planted defect where it matters (and the control engine on the same
-jobs) and prints which defects the verdicts catch (see driver)."""
+"""python -m refsim_adapters.planted_defects [--defect NAME ...] [--case NAME ...]
+[--quick] [--workers N] [--out CSV]: runs each planted defect where it matters (and the control
+engine on the same jobs) and prints which defects the verdicts catch (see driver)."""
 from __future__ import annotations
 
 import argparse
@@ -10,7 +10,7 @@ from .engines import DEFECTS
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m adapters.planted_defects",
+    parser = argparse.ArgumentParser(prog="python -m refsim_adapters.planted_defects",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--defect", action="append", choices=[d for d in DEFECTS
                                                               if d != "control"],

@@ -36,7 +36,7 @@ def sim_error(case, p, sim, dt) -> float:
 def defect_error(case, p, defect, integrator, dt, formulation="quat_exp") -> float:
     """sim_error of the planted-defect engine `defect` (adapters.planted_defects.DEFECTS
     name, "control" for none) running `integrator` at dt."""
-    from adapters.planted_defects.engines import register_all
+    from refsim_adapters.planted_defects.engines import register_all
     from refsim.registry import get_engine
     register_all()
     sim = get_engine(f"planted_{defect}").build(case.scene(p), dt, integrator, formulation)

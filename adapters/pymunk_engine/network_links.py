@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from adapters.common.spring_network import observation
+from refsim_adapters.common.spring_network import observation
 from refsim.engine import Sim
 
 from .body_arrays import BodyArrays

@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from adapters.common.spring_network import free_mask, observation
+from refsim_adapters.common.spring_network import free_mask, observation
 from refsim.engine import Sim
 
 from .body_arrays import BodyArrays

@@ -10,7 +10,7 @@ Modules, one per model group:
 - `contacts`: ContactSim (spheres and walls with impulses, three formulations);
 - `sph`: FluidSim (2D weakly compressible SPH in a tank).
 Scene translation shared with the other engines (refusals, hinge frames, rod errors, SPH
-lattices) is in `adapters.common`.
+lattices) is in `refsim_adapters.common`.
 """
 from .engine import RefsimEngine
 

@@ -1,6 +1,6 @@
 """The in-house engine's fluid step (`refsim`, feature "fluid"): 2D weakly compressible SPH
 (`refsim.models.sph`) with a fluid block released in a tank whose walls are dummy particles
-(the lattices from `adapters.common.sph_lattice`)."""
+(the lattices from `refsim_adapters.common.sph_lattice`)."""
 from __future__ import annotations
 
 import numpy as np

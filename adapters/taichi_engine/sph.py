@@ -3,7 +3,7 @@
 diffusion, Adami 2012 wall particles, negative pressures clamped to 0 or kept) and refsim's
 kick-drift-kick step with the trapezoid density drift, as taichi kernels (sph_physics,
 sph_kernels). Particles, wall particles and initial densities come from the functions the
-in-house engine uses too (`adapters.common.sph_lattice`), so both engines start from the same
+in-house engine uses too (`refsim_adapters.common.sph_lattice`), so both engines start from the same
 bits. Engine variant "parallel": one launch per step of a kernel whose stages are
 multi-threaded loops (gathers, no atomics: the same bits)."""
 from __future__ import annotations
@@ -142,7 +142,7 @@ class FluidSim(KernelSim):
                 "gravity_2d": self.gravity.tolist(),
                 "particles": self.n_fluid, "wall_particles": self.n_wall,
                 "wall_layers": self.wall_layers,
-                "initial_conditions": "adapters.common.sph_lattice fluid_particles / "
+                "initial_conditions": "refsim_adapters.common.sph_lattice fluid_particles / "
                                       "wall_particles, hydrostatic Tait density (identical "
                                       "to refsim's)",
                 "neighbours": "uniform grid over the bounding box, cell 2h (enlarged to fit "

@@ -8,7 +8,7 @@ hinge about world y); gravity -z; released from rest at theta0 (the rod turned b
 world y, the centre of mass at (L/2 sin theta0, 0, -L/2 cos theta0)).
 About the pivot I_p = m L^2 / 3, the torque m g (L/2) sin theta: theta'' = -w0^2 sin theta with
 w0^2 = m g (L/2) / (m L^2 / 3) = 3 g / (2 L): the pendulum's Jacobi elliptic solution
-(`cases.particles.pendulum.exact_pendulum`) at that w0. The point-mass pendulum of the same
+(`refsim_cases.particles.pendulum.exact_pendulum`) at that w0. The point-mass pendulum of the same
 length has w0^2 = g / L: small-swing periods 2 pi sqrt(2 L / (3 g)) (rod) and 2 pi sqrt(L / g)
 (point mass), the rod's shorter by sqrt(2/3) (its mass sits nearer the pivot: the two inertias
 m L^2 / 3 and m L^2 against torque arms L / 2 and L). Compared observable `theta` (rad), the
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.particles.pendulum import exact_pendulum, period_sensitivity
+from refsim_cases.particles.pendulum import exact_pendulum, period_sensitivity
 from refsim.case import ADAPTIVE_REASON, Param, adaptive_rtol, roundoff_tolerance
 from refsim.scene import RigidBodies, Scene
 from refsim.scene.pivots import RigidPivots

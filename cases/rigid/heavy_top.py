@@ -129,7 +129,7 @@ def axis_observables(p, q, w_body) -> dict:
 
 
 def _stays_up(engine, integrator, dt, variant, p, periods, factor) -> bool:
-    from cases.rigid.heavy_top import (
+    from refsim_cases.rigid.heavy_top import (
         CASE,  # the case as registered (this module's CASE)
     )
     sim = engine.build(CASE.scene(p), dt, integrator, variant)
@@ -151,7 +151,7 @@ def find_threshold(engine, integrator, dt, variant="", low=0.8, high=1.2, resolu
     [low, high] (falls at low, stays up at high, checked) to `resolution`."""
     if not 0.0 < low < high:
         raise ValueError(f"find_threshold needs 0 < low < high, got low = {low}, high = {high}")
-    from cases.rigid.heavy_top import CASE
+    from refsim_cases.rigid.heavy_top import CASE
     base = CASE.variant_params("sleeping_stable", {"tilt": tilt})
 
     def stays(r):

@@ -23,7 +23,7 @@ def stress_limits(tmp_path):
 def planted():
     """The planted-defect engines (adapters.planted_defects) registered as "planted_<defect>"
     for the module's tests (run_job looks engines up by name), unregistered after them."""
-    from adapters.planted_defects.engines import register_all
+    from refsim_adapters.planted_defects.engines import register_all
     from refsim.registry import unregister
     names = register_all()
     yield names

@@ -3,8 +3,8 @@ radius grows by |R(iy)| a step, and the errors against the flow converge at the 
 import numpy as np
 import pytest
 
-from adapters.planted_defects.checks import job_uncaught
-from cases.particle_fields.advection_vortex import AXIS, CASE, CENTRE
+from refsim_adapters.planted_defects.checks import job_uncaught
+from refsim_cases.particle_fields.advection_vortex import AXIS, CASE, CENTRE
 from refsim.engine import Engine
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.tableaux import RK4

@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from adapters.planted_defects.checks import defect_uncaught
-from cases.networks._cloth_grid import (dihedral_quads, grid_positions, shear_edges,
+from refsim_adapters.planted_defects.checks import defect_uncaught
+from refsim_cases.networks._cloth_grid import (dihedral_quads, grid_positions, shear_edges,
                                         structural_edges)
-from cases.networks.cloth_hang import CASE, cloth_network, edge_strain
+from refsim_cases.networks.cloth_hang import CASE, cloth_network, edge_strain
 from refsim import registry
 from refsim.runner import Job, run_job
 from refsim.scene.networks import dihedral_angles

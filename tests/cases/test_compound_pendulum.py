@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from adapters.planted_defects.checks import defect_uncaught
-from cases.rigid.compound_pendulum import CASE, rod_rate, small_swing_periods
+from refsim_adapters.planted_defects.checks import defect_uncaught
+from refsim_cases.rigid.compound_pendulum import CASE, rod_rate, small_swing_periods
 from refsim.registry import get_engine
 
 ENGINE = get_engine("refsim")
@@ -59,7 +59,7 @@ def test_rod_and_point_mass_periods_differ_by_sqrt_two_thirds():
 
 def test_pivot_holds_the_rod_end_at_the_origin():
     p, obs = _run("default", "symplectic_euler", 8e-3)
-    from cases.rigid import quat_to_matrix
+    from refsim_cases.rigid import quat_to_matrix
     top = obs["x"][:, 0] + np.einsum("tij,j->ti", quat_to_matrix(obs["q"][:, 0]),
                                      [0.0, 0.0, 0.5 * p["length"]])
     # x = anchor + R c in generalized coordinates: round-off only (a few eps of L)

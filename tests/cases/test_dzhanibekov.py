@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from adapters.planted_defects.checks import defect_error, defect_uncaught
-from cases.rigid import quat_multiply, quat_to_matrix
-from cases.rigid.dzhanibekov import (CASE, exact_body_omega, flip_period, initial_body_omega,
+from refsim_adapters.planted_defects.checks import defect_error, defect_uncaught
+from refsim_cases.rigid import quat_multiply, quat_to_matrix
+from refsim_cases.rigid.dzhanibekov import (CASE, exact_body_omega, flip_period, initial_body_omega,
                                      initial_orientation, invariants, moments, world_momentum)
 
 RTOL = 1e-12  # the DOP853 reference solve of the brief

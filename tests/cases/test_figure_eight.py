@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from cases.particle_fields.figure_eight import (
+from refsim_cases.particle_fields.figure_eight import (
     CASE,
     G,
     MASSES,
@@ -15,7 +15,7 @@ from cases.particle_fields.figure_eight import (
 )
 from refsim.integrators import AdaptiveDormandPrince
 from refsim.models.nbody_gravity import GravitySystem, total_momentum
-from adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
+from refsim_adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
 from refsim.registry import get_engine
 
 

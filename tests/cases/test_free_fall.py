@@ -5,8 +5,8 @@ import pytest
 from test_stiff_spring import finest_scene_defect, impostor_uncaught, named_bound, \
     scene_defect_row
 
-from adapters.planted_defects.checks import sweep
-from cases.particles.free_fall import CASE
+from refsim_adapters.planted_defects.checks import sweep
+from refsim_cases.particles.free_fall import CASE
 from refsim.job import Job, run_job
 from refsim.runner import expand
 

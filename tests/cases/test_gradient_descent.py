@@ -3,8 +3,8 @@ stepper), stability iff h < 2/lambda for explicit Euler."""
 import numpy as np
 import pytest
 
-from adapters.planted_defects.checks import job_uncaught
-from cases.particle_fields.gradient_descent import CASE
+from refsim_adapters.planted_defects.checks import job_uncaught
+from refsim_cases.particle_fields.gradient_descent import CASE
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.tableaux import RK4
 from refsim.job import Job, run_job

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from cases.networks._chain import catenary_parameter, catenary_sag, chain_equilibrium
-from cases.networks.hanging_chain import CASE, G
+from refsim_cases.networks._chain import catenary_parameter, catenary_sag, chain_equilibrium
+from refsim_cases.networks.hanging_chain import CASE, G
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
 
@@ -109,7 +109,7 @@ def test_bound_is_the_methods_own_transient_within_a_small_factor(integrator):
 
 
 def _final_error(p, defect, integrator):
-    from adapters.planted_defects.engines import register_all
+    from refsim_adapters.planted_defects.engines import register_all
     register_all()
     dt = CASE.reference_dt(p)
     sim = get_engine(f"planted_{defect}").build(CASE.scene(p), dt, integrator, "")

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from cases.fdm.heat_mode import CASE
+from refsim_cases.fdm.heat_mode import CASE
 from refsim.registry import get_engine
 from refsim.runner import Job, run_job
 

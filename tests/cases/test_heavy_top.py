@@ -4,8 +4,8 @@ by bisection on refsim against I3^2 w3^2 = 4 I1' M g l."""
 import numpy as np
 import pytest
 
-from adapters.planted_defects.checks import defect_uncaught
-from cases.rigid.heavy_top import (
+from refsim_adapters.planted_defects.checks import defect_uncaught
+from refsim_cases.rigid.heavy_top import (
     CASE,
     find_threshold,
     linear_tilt_ratio,
@@ -55,7 +55,7 @@ def test_reference_conserves_energy_and_both_momenta(variant):
 
 
 def _matrices(q):
-    from cases.rigid import quat_to_matrix
+    from refsim_cases.rigid import quat_to_matrix
     return quat_to_matrix(q)
 
 

@@ -2,17 +2,17 @@
 import numpy as np
 import pytest
 
-from cases.particle_fields._orbits import (
+from refsim_cases.particle_fields._orbits import (
     kepler_residual,
     measured_period,
     relative_orbit,
     solve_kepler,
     two_body_state,
 )
-from cases.particle_fields.kepler import CASE, masses, period
+from refsim_cases.particle_fields.kepler import CASE, masses, period
 from refsim.metrics import convergence_order
 from refsim.models.nbody_gravity import angular_momentum, runge_lenz, total_energy
-from adapters.planted_defects.checks import bound_misfits, job_error, job_uncaught, sweep
+from refsim_adapters.planted_defects.checks import bound_misfits, job_error, job_uncaught, sweep
 from refsim.registry import get_engine
 
 EPS = np.finfo(float).eps

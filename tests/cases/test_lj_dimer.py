@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from cases.particle_fields.lj_dimer import (CASE, K_REDUCED, R0_OVER_SIGMA, crossing_times,
+from refsim_cases.particle_fields.lj_dimer import (CASE, K_REDUCED, R0_OVER_SIGMA, crossing_times,
                                             curvature, exact_period, force, potential,
                                             reference_separation, small_vibration_omega,
                                             turning_points)
-from adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
+from refsim_adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
 from refsim import registry
 from refsim.testing import accuracy, measured_order
 
@@ -20,7 +20,7 @@ EPS = np.finfo(float).eps
 @pytest.fixture(scope="module", autouse=True)
 def registered():
     if "lj_dimer" not in registry.names("case"):
-        registry.register("case", "lj_dimer", "cases.particle_fields.lj_dimer:CASE")
+        registry.register("case", "lj_dimer", "refsim_cases.particle_fields.lj_dimer:CASE")
 
 
 def test_stiffness_is_36_two_to_two_thirds():

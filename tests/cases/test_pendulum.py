@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from test_stiff_spring import WRONG_METHODS, finest_scene_defect, impostor_uncaught, named_bound
 
-from adapters.planted_defects.checks import sweep
-from cases.particles.pendulum import CASE, SAFETY
+from refsim_adapters.planted_defects.checks import sweep
+from refsim_cases.particles.pendulum import CASE, SAFETY
 from refsim.integrators import get_integrator
 from refsim.job import Job, run_job
 
@@ -91,7 +91,7 @@ def test_physical_defects_exceed_the_bound_at_the_finest_dt(monkeypatch, defect,
 @pytest.mark.parametrize("integrator", ["heun", "rk4", "symplectic_euler"])
 def test_velocity_damping_of_1e_4_per_step_exceeds_the_bound(monkeypatch, integrator):
     """The stepper multiplies v by 1 - 1e-4 after every step."""
-    import adapters.refsim_engine.engine as refsim_engine
+    import refsim_adapters.refsim_engine.engine as refsim_engine
     real = refsim_engine.get_integrator
 
     def damped(spec):

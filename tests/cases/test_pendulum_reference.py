@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from cases.particles.pendulum import exact_pendulum, period
+from refsim_cases.particles.pendulum import exact_pendulum, period
 
 
 @pytest.mark.parametrize("theta0", [0.3, 1.0, np.pi / 2, 2.5, 3.0])

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from cases.contacts.sphere_pairs import CASE
+from refsim_cases.contacts.sphere_pairs import CASE
 from refsim.job import Job, run_job
 from refsim.registry import get_engine
 
@@ -55,7 +55,7 @@ def test_the_slides_seed_formula_is_far_above_the_bound():
 def test_velocity_damping_of_1e4_a_step_exceeds_the_bound_at_the_finest_dt():
     """v *= 1 - 1e-4 a step leaves the outcome ~1e-4 (t_end - t_c) / dt relative: 0.12 m/s
     at dt 0.5 ms against a bound of 7e-3 (oblique) and 1e-9 (head-on)."""
-    from adapters.planted_defects.checks import defect_error
+    from refsim_adapters.planted_defects.checks import defect_error
     for variant in ("head_on", "oblique"):
         p = CASE.variant_params(variant)
         dt = min(CASE.dts(p))

@@ -2,7 +2,7 @@
 falls monotonically."""
 import pytest
 
-from cases.particle_fields.sphere_sampling import CASE
+from refsim_cases.particle_fields.sphere_sampling import CASE
 from refsim.job import Job, run_job
 
 

@@ -3,10 +3,11 @@ steps themselves, computed independently (matrix powers, SVD polar factors, quat
 import numpy as np
 import pytest
 
-from adapters.planted_defects.checks import defect_error, defect_uncaught
-from cases.rigid import quat_multiply, quat_to_matrix, rotation_angle_between, rotation_quaternion
-from cases.rigid.spin_drift import (CASE, FORMULATIONS, PRINCIPAL_MOMENTS, discrete_angle_error,
-                                    discrete_defect)
+from refsim_adapters.planted_defects.checks import defect_error, defect_uncaught
+from refsim_cases.rigid import (quat_multiply, quat_to_matrix, rotation_angle_between,
+                                rotation_quaternion)
+from refsim_cases.rigid.spin_drift import (CASE, FORMULATIONS, PRINCIPAL_MOMENTS,
+                                           discrete_angle_error, discrete_defect)
 from refsim.integrators import get_integrator
 
 EPS = np.finfo(float).eps

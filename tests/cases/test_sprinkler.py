@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from adapters.planted_defects.checks import job_error, job_uncaught
-from cases.particle_fields.sprinkler import CASE
+from refsim_adapters.planted_defects.checks import job_error, job_uncaught
+from refsim_cases.particle_fields.sprinkler import CASE
 from refsim.models import emitter as em
 
 

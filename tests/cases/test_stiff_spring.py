@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from adapters.planted_defects.checks import sweep, uncaught
-from cases.particles.stiff_spring import CASE
+from refsim_adapters.planted_defects.checks import sweep, uncaught
+from refsim_cases.particles.stiff_spring import CASE
 from refsim.integrators import ExplicitRK, Tableau, get_integrator
 from refsim.job import Job, run_job
 from refsim.registry import get_case
@@ -34,7 +34,7 @@ def named_bound(row, p, named):
 
 def impostor_row(monkeypatch, case, variant, named, impostor, dt, engine_variant=""):
     """refsim's engine asked for `named` running `impostor` instead (the steppers it builds)."""
-    import adapters.refsim_engine.engine as refsim_engine
+    import refsim_adapters.refsim_engine.engine as refsim_engine
     real = refsim_engine.get_integrator
     monkeypatch.setattr(refsim_engine, "get_integrator",
                         lambda spec: IMPOSTORS[impostor]() if spec == named else real(spec))

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from cases.fdm.wave_mode import CASE, discrete_u
+from refsim_cases.fdm.wave_mode import CASE, discrete_u
 from refsim.registry import get_engine
 from refsim.runner import Job, run_job
 

@@ -40,9 +40,24 @@ def _imported(path: Path) -> set[str]:
 
 
 def test_only_the_registry_imports_adapters_or_cases():
-    offenders = {str(p.relative_to(ROOT)): sorted(_imported(p) & {"adapters", "cases"})
+    plugins = {"refsim_adapters", "refsim_cases", "adapters", "cases"}
+    offenders = {str(p.relative_to(ROOT)): sorted(_imported(p) & plugins)
                  for p in _modules("refsim") if p.name != "registry.py"}
     assert {k: v for k, v in offenders.items() if v} == {}
+
+
+def test_installed_refsim_adds_no_generic_top_level_names(tmp_path):
+    """Outside the repository (no folder on the path), the installed refsim provides
+    refsim_adapters, refsim_cases and refsim_benchmarks, and no `adapters`, `cases` or
+    `benchmarks` (the folders' own names, which any other distribution might use)."""
+    import subprocess
+    import sys
+    code = ("import importlib.util as u; print([n for n in ('adapters', 'cases', "
+            "'benchmarks', 'refsim_adapters', 'refsim_cases', 'refsim_benchmarks') "
+            "if u.find_spec(n) is not None])")
+    found = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                           text=True, check=True).stdout.strip()
+    assert found == "['refsim_adapters', 'refsim_cases', 'refsim_benchmarks']"
 
 
 def test_core_imports_no_engine_package():

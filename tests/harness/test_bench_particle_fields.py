@@ -3,8 +3,8 @@ cell list's cost exponent is near linear, and the figures pass the store's check
 import numpy as np
 import pytest
 
-from benchmarks import lennard_jones as lj
-from benchmarks import particle_fields as bench
+from refsim_benchmarks import lennard_jones as lj
+from refsim_benchmarks import particle_fields as bench
 from refsim.figure_runs import check_figures
 
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks import sleeping_top as bench
+from refsim_benchmarks import sleeping_top as bench
 from refsim import cli, registry
 from refsim.figure_runs import check_figures
 from refsim.registry import get_engine
@@ -59,7 +59,7 @@ def test_bench_stores_its_figures(tmp_path, capsys, monkeypatch):
     # whose metadata predates it
     installed = "sleeping_top" in registry.entries("bench")
     if not installed:
-        registry.register("bench", "sleeping_top", "benchmarks.sleeping_top:main")
+        registry.register("bench", "sleeping_top", "refsim_benchmarks.sleeping_top:main")
     try:
         assert cli.main(["bench", "sleeping_top", "--quick", "--out", str(tmp_path)]) == 0
     finally:

@@ -112,7 +112,7 @@ def test_bench_returning_an_exit_code_stores_nothing(benches, tmp_path):
 
 # -- the built-in benches' figures -------------------------------------------------------------
 def test_inhouse_figures_have_distinct_keys_and_honest_times():
-    from benchmarks import inhouse
+    from refsim_benchmarks import inhouse
     rows = [("refsim rk4, dt = 0.005 s", 9e-9, 0.005, "rk4", 2),
             ("refsim dopri5_adaptive:1e-9", 4e-10, 0.04, "dopri5_adaptive:1e-9", 1)]
     scipy_row = ("scipy", 5e-9, 0.02, "DOP853", 3e-9)
@@ -132,7 +132,7 @@ def test_inhouse_figures_have_distinct_keys_and_honest_times():
 
 def test_sph_throughput_is_fluid_particle_steps_per_second():
     """5000 fluid particles, 40 steps in 0.5 s: 4e5 particle-steps/s, 12.5 ms per step."""
-    from benchmarks import sph
+    from refsim_benchmarks import sph
     fig = sph.throughput_figure(5000, "taichi", "cpu", 1e-4, 40, 0.5, 5000, 2)
     assert fig["value"] == pytest.approx(400_000.0)
     assert fig["us_per_step"] == pytest.approx(12_500.0)

@@ -7,8 +7,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from adapters.planted_defects import driver
-from adapters.planted_defects.engines import (
+from refsim_adapters.planted_defects import driver
+from refsim_adapters.planted_defects.engines import (
     DEFECTS,
     KUTTA3,
     UNREACHABLE,

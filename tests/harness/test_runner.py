@@ -270,7 +270,7 @@ def test_source_hash_covers_the_case_packages_helper_modules():
     from refsim.case import _package_imports
     from refsim.registry import get_case
     module = inspect.getmodule(type(get_case("dzhanibekov")))
-    assert "cases.rigid._bounds" in {m.__name__ for m in _package_imports(module)}
+    assert "refsim_cases.rigid._bounds" in {m.__name__ for m in _package_imports(module)}
 
 
 class _LaunchSim:

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from adapters.common.spring_network import NETWORK_INTEGRATORS, claims, scene_reason
+from refsim_adapters.common.spring_network import NETWORK_INTEGRATORS, claims, scene_reason
 from refsim.engine import ModelGroup
 
 WHO = "mujoco adapter"

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapters.common.spring_network import claims, observation, scene_reason
+from refsim_adapters.common.spring_network import claims, observation, scene_reason
 from refsim.engine import ModelGroup, Sim
 
 from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet

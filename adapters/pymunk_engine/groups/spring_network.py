@@ -17,7 +17,7 @@ hinges on anything but a chain pinned at its root (the reason says which).
 """
 from __future__ import annotations
 
-from adapters.common.spring_network import (
+from refsim_adapters.common.spring_network import (
     NETWORK_INTEGRATORS,
     claims,
     integrator_reason,

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapters.common.particle_fields import PRINTED
+from refsim_adapters.common.particle_fields import PRINTED
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.models import emitter as em

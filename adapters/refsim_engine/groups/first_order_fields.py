@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapters.common.first_order import (  # noqa: F401
+from refsim_adapters.common.first_order import (  # noqa: F401
     FIELD_INTEGRATORS,
     OFFERED,
     SAMPLING_INTEGRATORS,

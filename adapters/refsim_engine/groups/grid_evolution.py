@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adapters.common.grid_pde import (
+from refsim_adapters.common.grid_pde import (
     FIRST_ORDER_SPARSE,
     SECOND_ORDER_IMPLICIT,
     evolution_group,

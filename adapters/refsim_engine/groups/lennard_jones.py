@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from adapters.common.particle_fields import supports_scene
+from refsim_adapters.common.particle_fields import supports_scene
 from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.models.lennard_jones import LennardJonesModel, LennardJonesSystem

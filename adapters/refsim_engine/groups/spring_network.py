@@ -11,7 +11,7 @@ Observes x and v of every node (pinned ones included).
 """
 from __future__ import annotations
 
-from adapters.common.spring_network import (
+from refsim_adapters.common.spring_network import (
     NETWORK_INTEGRATORS,
     claims,
     integrator_reason,

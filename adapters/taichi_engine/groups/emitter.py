@@ -1,6 +1,6 @@
 """taichi's emitter group: the `Emitter` part's particles in fixed slots under the scene's
 uniform gravity, the ballistic update in the float64 kernel of
-`adapters.taichi_engine.emitter_kernels`.
+`refsim_adapters.taichi_engine.emitter_kernels`.
 
 The schedule is refsim.models.emitter's (as refsim's group): particle i in slot i mod capacity,
 born at its step boundary, removed at the first boundary where its age >= lifetime. Births and
@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from adapters.common.particle_fields import PRINTED
+from refsim_adapters.common.particle_fields import PRINTED
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.models import emitter as em

@@ -2,10 +2,10 @@
 float64 kernels stepped by the tableaux of refsim's first-order steppers (so the two agree to
 round-off):
 - an affine `VelocityField` (rigid vortex, quadratic descent), p' = M (p - c), by
-  `adapters.taichi_engine.first_order_kernels`; observes x (n, 3) and v = M (x - c);
+  `refsim_adapters.taichi_engine.first_order_kernels`; observes x (n, 3) and v = M (x - c);
 - Witkin-Heckbert sampling of a sphere (`SurfaceSampling`): all-pairs Gaussian repulsion,
   tangential descent, projection onto the sphere after every step, by
-  `adapters.taichi_engine.sampling_kernels` (explicit Euler, midpoint, Heun, RK4: refsim's
+  `refsim_adapters.taichi_engine.sampling_kernels` (explicit Euler, midpoint, Heun, RK4: refsim's
   SAMPLING_INTEGRATORS); observes x, v = u(x) and "repulsion_energy", the last two from the
   observed x by refsim's numpy model (outside the timed loop), as refsim's group does.
 """
@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from adapters.common.first_order import (
+from refsim_adapters.common.first_order import (
     FIELD_INTEGRATORS,
     OFFERED,
     SAMPLING_INTEGRATORS,

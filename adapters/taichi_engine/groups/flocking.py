@@ -1,6 +1,6 @@
 """taichi's flocking group: birds under a `Flocking` part (Cucker-Smale or Reynolds, all pairs),
 the model of `refsim.models.flocking` as the float64 kernels of
-`adapters.taichi_engine.flocking_kernels` (equal to refsim's group to round-off at equal
+`refsim_adapters.taichi_engine.flocking_kernels` (equal to refsim's group to round-off at equal
 stepper). Integrators: symplectic Euler (kick-drift), velocity Verlet (closing kick corrected
 once, as refsim's: the rules depend on v), RK4, explicit Euler and midpoint: one kernel for
 all of them (the stepper a runtime argument), the time loop inside it.

@@ -1,6 +1,6 @@
 """taichi's n-body gravity: the scene's particles attract in all pairs (`GravityPairs`), the
 model of `refsim.models.nbody_gravity` written as float64 kernels
-(`adapters.taichi_engine.gravity_kernels`: the two agree to round-off at equal stepper).
+(`refsim_adapters.taichi_engine.gravity_kernels`: the two agree to round-off at equal stepper).
 Integrators: symplectic_euler, velocity_verlet, rk4, each with its time loop inside one kernel.
 
 Claims scenes whose parts are exactly particles and a GravityPairs part, with no uniform

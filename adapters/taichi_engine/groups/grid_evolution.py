@@ -1,7 +1,7 @@
 """taichi's finite-difference group: the heat equation u_t = D lap u and the wave equation
 u_tt = c^2 lap u on one `Grid` part (1D, 2D or 3D; Dirichlet, Neumann or periodic sides), the
 models and steppers of refsim's grid_evolution group as float64 kernels
-(`adapters.taichi_engine.grid_kernels`), so the two agree to round-off.
+(`refsim_adapters.taichi_engine.grid_kernels`), so the two agree to round-off.
 
 Heat: explicit_euler (FTCS, one fused sweep u + h (D lap u) per step), midpoint, heun, rk4
 (the tableaux written out), implicit_euler and crank_nicolson (taichi's SparseSolver, LU, on
@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from adapters.common.grid_pde import (
+from refsim_adapters.common.grid_pde import (
     evolution_group,
     field_name,
     fields_of,

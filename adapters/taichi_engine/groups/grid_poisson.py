@@ -1,6 +1,6 @@
 """taichi's Poisson solvers (issue 15): the 5-point (2D) / 7-point (3D) equation L_h u = f on
 one `Grid` part whose sides are all Dirichlet, solved by float64 taichi kernels
-(`adapters.taichi_engine.poisson_kernels`), following the Poisson contract shared with the
+(`refsim_adapters.taichi_engine.poisson_kernels`), following the Poisson contract shared with the
 in-house group:
 - scene: Grid(model="poisson", boundary="dirichlet", fields {"u": initial guess (Dirichlet
   values on the boundary), "f": right-hand side}, coefficients {"rtol": relative residual});

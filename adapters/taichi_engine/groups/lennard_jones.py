@@ -1,6 +1,6 @@
 """taichi's Lennard-Jones group: particles under the pair forces of a LennardJones part, as the
-float64 kernels of `adapters.taichi_engine.lj_kernels` (refsim.models.lennard_jones's model: a
-grid rebuilt per force evaluation when the cut-off is finite, all pairs when it is inf; open or
+float64 kernels of `refsim_adapters.taichi_engine.lj_kernels` (refsim.models.lennard_jones's
+model: a grid rebuilt per force evaluation when the cut-off is finite, all pairs when it is inf; open or
 periodic; 2D in the plane z = 0 or 3D). Integrators: velocity Verlet, symplectic Euler (kick
 then drift), RK4, explicit Euler, the time loop inside one kernel.
 
@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from adapters.common.particle_fields import supports_scene
+from refsim_adapters.common.particle_fields import supports_scene
 from refsim.engine import ModelGroup
 from refsim.scene.lennard_jones import lennard_jones_of
 

@@ -1,7 +1,7 @@
 """taichi's pivoted rigid bodies: every rigid body of the scene turns about a fixed point
 (`RigidPivots`, a ball joint to the world), stepped by the float64 kernels of
-`adapters.taichi_engine.pivot_kernels`, the model of `refsim.models.rigid_pivot` (the two agree
-to round-off at equal formulation and stepper). The state is (q, w) per body: the pivot holds
+`refsim_adapters.taichi_engine.pivot_kernels`, the model of `refsim.models.rigid_pivot` (the
+two agree to round-off at equal formulation and stepper). The state is (q, w) per body: the pivot holds
 the centre of mass on its sphere exactly (x = anchor + R c), no constraint force.
 
 Claims scenes of rigid bodies and a RigidPivots part, every body pivoted once. Formulations

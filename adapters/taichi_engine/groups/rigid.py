@@ -1,6 +1,6 @@
 """taichi's rigid-body model group: free rigid bodies (Newton-Euler, world frame) under gravity,
-stepped by the float64 kernels of `adapters.taichi_engine.rigid_kernels` (the model of issue 13
-that refsim's numpy rigid model follows, and refsim's steppers: the two agree to round-off at
+stepped by the float64 kernels of `refsim_adapters.taichi_engine.rigid_kernels` (the model of
+issue 13 that refsim's numpy rigid model follows, and refsim's steppers: the two agree to round-off at
 equal formulation and stepper).
 
 Claims scenes whose only part is `rigid` (RigidBodies; gravity allowed, nothing else).

@@ -1,6 +1,6 @@
 """taichi's spring-network group (cloth, rope, hair: one `SpringNetwork` part): the model of
 refsim.models.spring_network (stretch springs with damping along the edge, air drag, gravity,
-pinned nodes) as float64 kernels (`adapters.taichi_engine.network_kernels`), stepped by the
+pinned nodes) as float64 kernels (`refsim_adapters.taichi_engine.network_kernels`), stepped by the
 four steppers of NETWORK_INTEGRATORS with refsim's arithmetic, so the two agree to round-off:
 
 - symplectic_euler, velocity_verlet, rk4: the time loop inside one kernel per Sim.step(n);
@@ -14,7 +14,7 @@ four steppers of NETWORK_INTEGRATORS with refsim's arithmetic, so the two agree 
   (a state of SPARSE_MIN entries or more), so the two rows pair up.
 
 Hinge and dihedral (bending) terms (refsim.models.bending's formulas, in its operation order):
-kernels of `adapters.taichi_engine.bending_kernels` for the three explicit steppers, a kernel
+kernels of `refsim_adapters.taichi_engine.bending_kernels` for the three explicit steppers, a kernel
 family of their own (a network without them compiles the stretch-only kernels as before).
 Baraff-Witkin refuses them: its kernels assemble the stretch springs' 3x3 blocks only (the
 hinge and dihedral Hessian blocks are not assembled on taichi).
@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from adapters.common.spring_network import (
+from refsim_adapters.common.spring_network import (
     NETWORK_INTEGRATORS,
     claims,
     free_mask,

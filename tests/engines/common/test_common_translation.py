@@ -1,5 +1,5 @@
-"""adapters.common: the shared scene refusals, hinge translation, contact data and SPH lattices,
-and that every adapter gives the shared reasons."""
+"""refsim_adapters.common: the shared scene refusals, hinge translation, contact data and SPH
+lattices, and that every adapter gives the shared reasons."""
 from __future__ import annotations
 
 import math
@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from adapters.common import checks
-from adapters.common.contacts import per_shape_coefficients
-from adapters.common.hinges import HingeFrames, rod_length_errors, rod_start_refusal
-from adapters.common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
+from refsim_adapters.common import checks
+from refsim_adapters.common.contacts import per_shape_coefficients
+from refsim_adapters.common.hinges import HingeFrames, rod_length_errors, rod_start_refusal
+from refsim_adapters.common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                          plane_gravity, wall_particles)
 from refsim.models.sph import tait_pressure
 from refsim.registry import get_engine

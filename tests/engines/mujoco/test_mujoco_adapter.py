@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from refsim.registry import get_engine
-from adapters.mujoco_engine.methods import METHODS
-from adapters.mujoco_engine.point_masses import POINT_INERTIA
+from refsim_adapters.mujoco_engine.methods import METHODS
+from refsim_adapters.mujoco_engine.point_masses import POINT_INERTIA
 from refsim.registry import get_case
 from refsim.metrics import bisect_limit, convergence_order
 from refsim.integrators import method_info

@@ -15,7 +15,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from cases.particles.pendulum import exact_pendulum
+from refsim_cases.particles.pendulum import exact_pendulum
 from refsim.engine import jsonable
 from refsim.observation import check_observation
 from refsim.registry import get_engine

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from adapters.mujoco_engine.spheres import rotate
+from refsim_adapters.mujoco_engine.spheres import rotate
 from refsim.observation import check_observation
 from refsim.registry import get_engine
 from refsim.scene import RigidBodies, Scene

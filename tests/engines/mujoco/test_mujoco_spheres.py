@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from refsim.registry import get_engine
-from adapters.mujoco_engine.contact_params import CONTACT_STEPS, IMPEDANCE, contact_stiffness
-from adapters.mujoco_engine.restitution import restitution_map
-from adapters.mujoco_engine.spheres import rotate
+from refsim_adapters.mujoco_engine.contact_params import CONTACT_STEPS, IMPEDANCE, contact_stiffness
+from refsim_adapters.mujoco_engine.restitution import restitution_map
+from refsim_adapters.mujoco_engine.spheres import rotate
 from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Scene, Wall
 from refsim.testing import accuracy

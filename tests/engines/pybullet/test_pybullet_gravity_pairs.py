@@ -26,7 +26,7 @@ from gravity_scenes import (  # noqa: F401
     kepler,
 )
 
-from adapters.pybullet_engine.runtime import import_pybullet
+from refsim_adapters.pybullet_engine.runtime import import_pybullet
 from refsim.engine import IntegratorInfo
 from refsim.registry import get_engine
 

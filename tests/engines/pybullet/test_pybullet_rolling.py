@@ -4,7 +4,7 @@ spin. Rows that exceed it and that no derivation bounds are xfail(strict) with t
 import numpy as np
 import pytest
 
-from cases.rigid.rolling_disc import CASE, observed_errors
+from refsim_cases.rigid.rolling_disc import CASE, observed_errors
 from refsim import registry
 
 pytest.importorskip("pybullet")

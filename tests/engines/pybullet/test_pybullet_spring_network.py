@@ -10,7 +10,7 @@ import numpy as np
 import pybullet  # noqa: F401  (fail, never skip, without the engine)
 import pytest
 
-from adapters.pybullet_engine.softbody import triangles
+from refsim_adapters.pybullet_engine.softbody import triangles
 from refsim.registry import get_engine
 from refsim.scene import Scene
 from refsim.scene.networks import SpringNetwork

@@ -11,7 +11,7 @@ import pymunk  # noqa: F401  (fail, never skip, without the engine)
 import pytest
 from scipy.spatial.transform import Rotation
 
-from cases.particles.pendulum import exact_pendulum
+from refsim_cases.particles.pendulum import exact_pendulum
 from refsim.engine import jsonable
 from refsim.observation import check_observation
 from refsim.registry import get_engine

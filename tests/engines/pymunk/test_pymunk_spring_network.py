@@ -9,7 +9,7 @@ import pymunk  # noqa: F401  (CI must have every engine: fail here, not skip)
 import pytest
 from scipy.optimize import root
 
-from adapters.refsim_engine.groups.spring_network import NetworkSim
+from refsim_adapters.refsim_engine.groups.spring_network import NetworkSim
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
 from refsim.scene import Scene

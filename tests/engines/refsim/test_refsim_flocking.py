@@ -3,8 +3,8 @@ counts, and the slide's sprinkler as printed."""
 import numpy as np
 import pytest
 
-from cases.particle_fields.boids import CASE as BOIDS
-from cases.particle_fields.sprinkler import CASE as EMITTER
+from refsim_cases.particle_fields.boids import CASE as BOIDS
+from refsim_cases.particle_fields.sprinkler import CASE as EMITTER
 from refsim.models import emitter as em
 from refsim.registry import get_engine
 

@@ -18,7 +18,7 @@ import pytest
 from refsim.testing import oscillator_stable
 
 from refsim.registry import get_engine
-from adapters.taichi_engine.runtime import import_taichi
+from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
 from refsim.metrics import bisect_limit, convergence_order
 from refsim.runner import Job, run_job

@@ -21,7 +21,7 @@ steps, against bounds of 6e-11 m and up), a rounding difference of some operatio
 import numpy as np
 import pytest
 
-from cases.networks import cloth_hang, hair_cantilever
+from refsim_cases.networks import cloth_hang, hair_cantilever
 from refsim import registry
 from refsim.job import Job, run_job
 from refsim.models.spring_network import NetworkSystem
@@ -148,7 +148,7 @@ def test_baraff_witkin_refuses_bending_and_settings_name_the_terms():
 
 
 def test_network_without_bending_keeps_the_stretch_only_kernels():
-    from adapters.taichi_engine import network_kernels as nk
+    from refsim_adapters.taichi_engine import network_kernels as nk
     p = hair_cantilever.CASE.variant_params("default")
     net = hair_cantilever.CASE.network(p)
     plain = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,

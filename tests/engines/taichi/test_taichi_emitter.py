@@ -6,7 +6,7 @@ import pytest
 
 pytest.importorskip("taichi")
 
-from cases.particle_fields.sprinkler import CASE as EMITTER
+from refsim_cases.particle_fields.sprinkler import CASE as EMITTER
 from refsim.models import emitter as em
 from refsim.registry import get_engine
 

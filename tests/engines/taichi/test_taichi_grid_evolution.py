@@ -15,7 +15,7 @@ sqrt(rho) |u|), so the v bound carries S_v + c sqrt(rho) S_u. rho = sum 4 / h^2 
 import numpy as np
 import pytest
 
-from adapters.common.grid_pde import DIFFUSION_INTEGRATORS, WAVE_INTEGRATORS
+from refsim_adapters.common.grid_pde import DIFFUSION_INTEGRATORS, WAVE_INTEGRATORS
 from refsim import registry
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.sparse_linear import first_order_implicit

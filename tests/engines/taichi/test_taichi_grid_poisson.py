@@ -17,7 +17,7 @@ from refsim.models.grid_laplacian import GridLaplacian
 from refsim.scene import Grid, Scene
 
 pytest.importorskip("taichi")
-from adapters.taichi_engine.groups.grid_poisson import (
+from refsim_adapters.taichi_engine.groups.grid_poisson import (
     MultigridOptions,
     PoissonSim,
     iteration_cap,

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from adapters.taichi_engine.runtime import import_taichi
-from cases.rigid import compound_pendulum
-from cases.rigid.heavy_top import CASE, spin
+from refsim_adapters.taichi_engine.runtime import import_taichi
+from refsim_cases.rigid import compound_pendulum
+from refsim_cases.rigid.heavy_top import CASE, spin
 from refsim.observation import check_observation
 from refsim.registry import get_engine
 from refsim.scene import RigidBodies, Scene
@@ -101,7 +101,7 @@ def _error(p, dt, integrator):
 
 
 def _matrices(q):
-    from adapters.taichi_engine.groups.rigid import rotation_matrices
+    from refsim_adapters.taichi_engine.groups.rigid import rotation_matrices
     return rotation_matrices(q)
 
 

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from adapters.taichi_engine.groups.rigid import rotation_matrices
-from adapters.taichi_engine.runtime import import_taichi
-from cases.rigid.dzhanibekov import CASE as DZHANIBEKOV
-from cases.rigid.dzhanibekov import invariants, period_sensitivity
+from refsim_adapters.taichi_engine.groups.rigid import rotation_matrices
+from refsim_adapters.taichi_engine.runtime import import_taichi
+from refsim_cases.rigid.dzhanibekov import CASE as DZHANIBEKOV
+from refsim_cases.rigid.dzhanibekov import invariants, period_sensitivity
 from refsim.job import Job, run_job
 from refsim.metrics import convergence_order
 from refsim.observation import check_observation

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from refsim.registry import get_engine
-from adapters.taichi_engine.runtime import import_taichi
+from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
-from cases.fluids.dam_break import clock_spread_rms
+from refsim_cases.fluids.dam_break import clock_spread_rms
 from refsim.testing import accuracy
 
 VV = "velocity_verlet"
@@ -149,7 +149,7 @@ def test_refusals_and_non_finite_state():
 def test_the_run_matrix_leaves_out_parallel_on_one_thread():
     """On one thread `parallel` is the serial kernel's arithmetic (the test above: the same
     bits), so `refsim run` leaves it out of its matrix; it stays buildable by name."""
-    from adapters.taichi_engine.runtime import THREADS
+    from refsim_adapters.taichi_engine.runtime import THREADS
     p, scene, dt = _scene()
     forms = TAICHI.matrix_formulations(scene)
     assert forms == (("",) if THREADS == 1 else ("", "parallel"))

@@ -4,8 +4,8 @@ variants; and the polyhedron reached through the harness."""
 import numpy as np
 import pytest
 
-from adapters.common.first_order import SAMPLING_INTEGRATORS
-from cases.particle_fields.sphere_sampling import CASE
+from refsim_adapters.common.first_order import SAMPLING_INTEGRATORS
+from refsim_cases.particle_fields.sphere_sampling import CASE
 from refsim.integrators.first_order import get_first_order
 from refsim.job import Job, run_job
 from refsim.registry import get_engine
@@ -128,8 +128,8 @@ def test_refusals_and_settings():
 def test_velocity_kernel_matches_the_model(variant):
     """u at the random start (the whole sphere, every pair distance): the pair sum's order
     and exp's last bit only, (n + 4) eps G (`step_difference_bound`'s slope term)."""
-    from adapters.taichi_engine import sampling_kernels as sk
-    from adapters.taichi_engine.kernel_store import to_ndarray
+    from refsim_adapters.taichi_engine import sampling_kernels as sk
+    from refsim_adapters.taichi_engine.kernel_store import to_ndarray
     p = CASE.variant_params(variant)
     system, n = CASE.system(p), CASE.count(p)
     start = system.project(CASE.start(p))

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from refsim.registry import get_engine
-from adapters.taichi_engine.runtime import import_taichi
+from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Joint, Scene, Wall
 from refsim.testing import accuracy

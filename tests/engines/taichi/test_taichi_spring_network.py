@@ -22,7 +22,7 @@ x), summed over the steps.
 import numpy as np
 import pytest
 
-from adapters.common.spring_network import NETWORK_INTEGRATORS
+from refsim_adapters.common.spring_network import NETWORK_INTEGRATORS
 from refsim import registry
 from refsim.models.spring_network import NetworkSystem
 from refsim.scene import Scene, SpringNetwork
@@ -219,7 +219,7 @@ def test_settings_state_solver_and_precision(variant):
 
 def test_cg_failure_is_reported():
     """A CG cap of zero iterations cannot reach the tolerance: the Sim fails with a reason."""
-    from adapters.taichi_engine.groups import spring_network as group
+    from refsim_adapters.taichi_engine.groups import spring_network as group
     sim = TAICHI.build(cloth_scene(), DT, "baraff_witkin", "cg")
     saved = group.CG_MAXITER_PER_DOF
     group.CG_MAXITER_PER_DOF = 0
