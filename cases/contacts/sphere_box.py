@@ -23,7 +23,7 @@ from refsim_cases.contacts._impact import (
     sphere_scene,
     state_energy,
 )
-from refsim.case import Case, Param
+from refsim.case import EPS, Case, Param
 from refsim.engine import ContactInfo
 from refsim.scene import Wall
 
@@ -146,8 +146,16 @@ class SphereBox(Case):
                 f"soft contacts hold kinetic energy while compressed: at most the share of "
                 f"spheres in contact, 2 x collision rate (v / mean free path = {rate:.3g} "
                 f"/s) x contact duration ({duration:.3g} s)")
-        return 1e-6, ("elastic impacts conserve kinetic energy exactly; 1e-6 allows the "
-                      "round-off of ~1e4 impacts")
+        n = p["n_spheres"]
+        impacts = 2.0 * n * p["speed"] / self.free_path(p) * self.t_end(p)
+        bound = 4.0 * EPS * impacts + n * EPS
+        return bound, (
+            f"elastic impacts conserve kinetic energy exactly: round-off only. An impact "
+            f"rounds two spheres' velocities, the total kinetic energy by at most 4 eps "
+            f"relative (their share of it is far less); over {impacts:.0f} impacts (twice "
+            f"n v / l T, Maxwell's dilute-gas rate: the gas at phi = {p['fraction']:g} "
+            f"collides more often, walls reflect exactly), plus n eps for the sum of E: "
+            f"{bound:.3g} (a float32 state, 6e-8 per rounding, errs 1e-9..1e-8)")
 
 
 CASE = SphereBox()
