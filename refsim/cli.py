@@ -5,7 +5,6 @@ naming the parameter and the valid values, and exits with code 2.
 """
 from __future__ import annotations
 
-import math
 import os
 import sys
 
@@ -30,6 +29,8 @@ THREADS = _pin_threads(sys.argv)
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import shlex  # noqa: E402
+
+from refsim.options import integer  # noqa: E402
 
 
 class _Parser(argparse.ArgumentParser):
@@ -148,24 +149,6 @@ def cmd_list() -> int:
     return 0
 
 
-def _positive_int(name, value):
-    if not str(value).isdigit() or int(value) < 1:
-        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-    return int(value)
-
-
-def _step_bound(value):
-    """--max-steps: an integer >= 1, written as digits or as 1e9."""
-    try:
-        bound = float(value)
-    except (TypeError, ValueError):
-        bound = math.nan
-    if not (math.isfinite(bound) and bound >= 1 and bound == int(bound)):
-        raise ValueError(f"--max-steps must be an integer >= 1 (e.g. 1000000000 or 1e9), "
-                         f"got {value!r}")
-    return int(bound)
-
-
 def _params(specs, cases):
     from refsim.registry import get_case
     out = {}
@@ -193,8 +176,8 @@ def cmd_run(args, argv) -> int:
 
     import time
     start = time.perf_counter()
-    repeats = _positive_int("--repeats", args.repeats)
-    _positive_int("--threads", args.threads)  # pinned before numpy loaded (_pin_threads)
+    repeats = integer("--repeats", args.repeats)
+    integer("--threads", args.threads)  # pinned before numpy loaded (_pin_threads)
     executor = _executor(args)  # its flags (and --jobs) checked before anything is stored
     root = Path(args.out) if args.out else store.DEFAULT_ROOT
     if args.resume:
@@ -207,7 +190,7 @@ def cmd_run(args, argv) -> int:
                 "variants": args.variant}
         spec["params"] = _params(args.param, spec["cases"])
         if args.max_steps is not None:
-            spec["max_steps"] = _step_bound(args.max_steps)
+            spec["max_steps"] = integer("--max-steps", args.max_steps, example="1000000000 or 1e9")
     jobs = runner.expand(**spec)
     if not args.resume:
         st = store.RunStore.create(root, _manifest(spec, argv, jobs))
@@ -252,17 +235,16 @@ def _executor(args):
     """Where the jobs run (refsim.executors): the local worker processes of --jobs, each job
     isolated in its process, or a Dask cluster (--scheduler ADDRESS | --dask-workers N)."""
     from refsim import executors
-    from refsim.options import positive_number
-    timeout = None if args.timeout is None else positive_number(
-        "--timeout", args.timeout, "a number of seconds > 0")
+    from refsim.options import number
+    timeout = None if args.timeout is None else number("--timeout", args.timeout, unit="s")
     if args.scheduler and args.dask_workers:
         raise ValueError("--scheduler and --dask-workers must not be given together: one "
                          "names an existing cluster, the other starts a local one")
     if args.scheduler or args.dask_workers:
-        workers = _positive_int("--dask-workers", args.dask_workers) if args.dask_workers \
+        workers = integer("--dask-workers", args.dask_workers) if args.dask_workers \
             else None
         return executors.Dask(args.scheduler, workers, timeout)
-    return executors.Local(_positive_int("--jobs", args.jobs), timeout)
+    return executors.Local(integer("--jobs", args.jobs), timeout)
 
 
 def _manifest(spec, argv, jobs) -> dict:

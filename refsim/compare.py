@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from refsim.options import number
 from refsim.store import KEY, atomic_write
 
 DEFAULT_ERROR_THRESHOLD = 1.10
@@ -106,13 +107,7 @@ def main(args) -> int:
 
 def check_threshold(name: str, value) -> float:
     """A ratio threshold: a finite number > 1."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number > 1, got {value!r}") from None
-    if not math.isfinite(number) or number <= 1.0:
-        raise ValueError(f"{name} must be a finite number > 1, got {value}")
-    return number
+    return number(name, value, low=1.0)
 
 
 def _check_out(out) -> Path | None:

@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Callable
 
 from refsim.integrators.spec import spec_name
+from refsim.options import number
 
 
 class EngineFailure(RuntimeError):
@@ -293,9 +294,7 @@ class Engine:
         return self.formulations(scene)
 
     def build(self, scene, dt: float, integrator: str, variant: str = "") -> Sim:
-        dt = float(dt)
-        if not math.isfinite(dt) or dt <= 0:
-            raise ValueError(f"dt must be a finite number > 0, got {dt}")
+        dt = number("dt", dt, unit="s")
         forms = self.formulations(scene)
         if variant not in forms:
             raise ValueError(f"{self.name} variant must be one of {list(forms)}, got "

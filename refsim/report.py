@@ -39,9 +39,8 @@ def add_arguments(parser) -> None:
 def main(args) -> int:
     from refsim.stored_runs import open_run
     run_dir = open_run("RUN_DIR", args.run_dir).dir
-    from refsim.options import positive_number
-    target = None if args.target_error is None else positive_number("--target-error",
-                                                                     args.target_error)
+    from refsim.options import number
+    target = None if args.target_error is None else number("--target-error", args.target_error)
     md, page = write_report(run_dir, target, Path(args.out) if args.out else None)
     print(md)
     print(page)

@@ -18,6 +18,7 @@ from refsim.registry import engine_names, get_engine
 from refsim.registry import case_names, get_case
 from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
 from refsim.integrators.spec import IntegratorSpec, spec_name
+from refsim.options import MAX_STEPS, check_dt, check_steps
 from refsim.job import (BUDGET_S, LONG_RUN_S, STATUSES, Job, run_job,  # noqa: F401
                         series)
 from refsim.case import adaptive_rtol
@@ -27,36 +28,6 @@ from refsim.verdicts import CONSISTENT, INCONSISTENT, order_reason
 # ---------------------------------------------------------------------------------------------
 # Matrix expansion
 # ---------------------------------------------------------------------------------------------
-MAX_STEPS = 10 ** 8
-MAX_STEPS_REASON = ("a run of more steps takes minutes to hours per engine and integrator "
-                    "(1 to 10 us a step) and its round-off alone, n eps of the state, passes "
-                    "2e-8 of it")
-
-
-def check_dt(dt) -> float:
-    try:
-        value = float(dt)
-    except (TypeError, ValueError):
-        raise ValueError(f"--dt must be a finite number > 0, got {dt!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise ValueError(f"--dt must be a finite number > 0, got {dt}")
-    return value
-
-
-def check_steps(dt: float, t_end: float, where: str, max_steps: int = MAX_STEPS) -> int:
-    """The step count of a run of t_end at dt; ValueError naming the valid dt range when dt is
-    longer than the run or the count passes max_steps (--max-steps overrides it)."""
-    if dt > t_end:
-        raise ValueError(f"--dt {dt:g} is longer than the run of {where} (t_end = {t_end:g} s): "
-                         f"dt must be in (0, {t_end:g}] s")
-    steps = t_end / dt
-    if steps > max_steps:
-        raise ValueError(f"--dt {dt:g} gives {steps:.3g} steps for {where}: dt must be in "
-                         f"[{t_end / max_steps:.3g}, {t_end:g}] s, at most --max-steps "
-                         f"{max_steps:g} steps ({MAX_STEPS_REASON})")
-    return int(round(steps))
-
-
 def check_integrators(integrators, engines) -> None:
     """Each spec names an integrator some engine offers; a parameter after ':' is given and in
     its range ('rk2:' would run the default rk2 under another row key)."""

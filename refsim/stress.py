@@ -53,6 +53,7 @@ from refsim.stress_report import atomic_csv, print_report
 from refsim.stress_store import store_run
 from refsim.integrators import get_integrator
 from refsim.integrators.spec import spec_name
+from refsim.options import number
 from refsim.stress_search import ENERGY_FACTOR, Y_MAX, Y_MIN, Criterion, find_limit, finite_time, \
     refsim_equivalent
 from refsim.stress_spec import Probe
@@ -206,13 +207,7 @@ def _periods(value, default):
 def _dt(value):
     if value is None:
         return SWEEP_DT
-    try:
-        dt = float(value)
-    except (TypeError, ValueError):
-        dt = math.nan
-    if not math.isfinite(dt) or not 0 < dt <= 1:
-        raise ValueError(f"--dt must be a number of seconds in (0, 1], got {value!r}")
-    return dt
+    return number("--dt", value, 0.0, 1.0, unit="s")
 
 
 def manifest(opts) -> dict:

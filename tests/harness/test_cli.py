@@ -31,11 +31,11 @@ def refsim(*args, cwd=None):
     (["run", "--repeats", "0"], "--repeats must be an integer >= 1"),
     (["run", "--bogus"], "unrecognized arguments"),
     (["run", "--case", "free_fall", "--dt", "10"],
-     "--dt 10 is longer than the run of free_fall/default (t_end = 2 s): dt must be in (0, 2]"),
+     "dt = 10 s is longer than the run of free_fall/default (t_end = 2 s): dt must be in (0, 2]"),
     (["run", "--case", "free_fall", "--dt", "1e-300"],
      "dt must be in [2e-08, 2] s, at most --max-steps 1e+08 steps"),
     (["run", "--case", "free_fall", "--dt", "1e-4", "--max-steps", "1000"],
-     "--dt 0.0001 gives 2e+04 steps for free_fall/default: dt must be in [0.002, 2] s"),
+     "dt = 0.0001 s gives 2e+04 steps for free_fall/default: dt must be in [0.002, 2] s"),
     (["run", "--max-steps", "0"], "--max-steps must be an integer >= 1"),
     (["run", "--max-steps", "1.5"], "--max-steps must be an integer >= 1"),
     (["run", "--threads", "abc"], "--threads must be an integer >= 1, got 'abc'"),
@@ -120,5 +120,5 @@ def test_resume_unknown_run_is_bad_input(tmp_path):
 
 
 def test_max_steps_reads_digits_and_powers_of_ten():
-    from refsim.cli import _step_bound
-    assert _step_bound("1000") == 1000 and _step_bound("1e9") == 10 ** 9
+    from refsim.options import integer
+    assert integer("--max-steps", "1000") == 1000 and integer("--max-steps", "1e9") == 10 ** 9

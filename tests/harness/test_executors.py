@@ -189,8 +189,8 @@ def _wait_for_rows(root, proc, at_least):
 
 
 @pytest.mark.parametrize("flags, message", [
-    (["--timeout", "0"], "--timeout must be a number of seconds > 0"),
-    (["--timeout", "abc"], "--timeout must be a number of seconds > 0"),
+    (["--timeout", "0"], "--timeout must be a finite number > 0 s"),
+    (["--timeout", "abc"], "--timeout must be a finite number > 0 s"),
     (["--dask-workers", "0"], "--dask-workers must be an integer >= 1"),
     (["--scheduler", "tcp://127.0.0.1:1", "--dask-workers", "2"], "must not be given together"),
 ])

@@ -91,16 +91,16 @@ def test_resolved_row_states_its_round_off_term():
 def test_job_with_dt_longer_than_the_run_is_a_failed_row_saying_so():
     row = run_job(Job("free_fall", "default", "refsim", "", "rk4", 10.0), repeats=0)
     assert row["status"] == "failed"
-    assert row["reason"] == ("ValueError: dt = 10 s is longer than the run (t_end = 2 s): dt "
-                             "must be in (0, 2] s")
+    assert row["reason"] == ("ValueError: dt = 10 s is longer than the run of free_fall/default "
+                             "(t_end = 2 s): dt must be in (0, 2] s")
 
 
 @pytest.mark.parametrize("kwargs,message", [
-    ({"dts": [10.0]}, "--dt 10 is longer than the run of free_fall/default (t_end = 2 s): dt "
+    ({"dts": [10.0]}, "dt = 10 s is longer than the run of free_fall/default (t_end = 2 s): dt "
                       "must be in (0, 2] s"),
-    ({"dts": [1e-300]}, "--dt 1e-300 gives 2e+300 steps for free_fall/default: dt must be in "
+    ({"dts": [1e-300]}, "dt = 1e-300 s gives 2e+300 steps for free_fall/default: dt must be in "
                         "[2e-08, 2] s, at most --max-steps 1e+08 steps"),
-    ({"dts": [1e-4], "max_steps": 1000}, "--dt 0.0001 gives 2e+04 steps for free_fall/default: "
+    ({"dts": [1e-4], "max_steps": 1000}, "dt = 0.0001 s gives 2e+04 steps for free_fall/default: "
                                          "dt must be in [0.002, 2] s, at most --max-steps 1000"),
     ({"integrators": ["rk2:"]}, "integrator 'rk2:': a parameter must follow ':' (alpha in "
                                 "(0, 1]"),
