@@ -151,6 +151,21 @@ class Case:
         """Errors above this are pre-asymptotic (or unstable): left out of order fits."""
         return 0.1 * self.motion_scale(p)
 
+    def reference_energy(self, p, t):
+        """The exact energy at times t where it is not E(0) (a damped or decaying case), for
+        `energy_drift`; None (the default): E(0) is the reference."""
+        return None
+
+    def energy_mask(self, p, t):
+        """Which samples `energy_drift` reads (e.g. outside the impacts of a soft contact);
+        None (the default): all of them."""
+        return None
+
+    def stability(self, p):
+        """The case's stability parameter for `refsim stress` (a refsim.stress_spec
+        StabilitySpec); None (the default): the case declares none."""
+        return None
+
     def energy_period(self, p, settings=None) -> float | None:
         """None (the default): the case claims no energy behaviour. A period P (s): the exact
         flow conserves the case's `energy` (no dissipation, no external work, no contacts),

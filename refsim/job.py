@@ -306,12 +306,11 @@ def _accuracy_metrics(case, p, stacked):
     out = error_norms(err)
     out["err_initial"] = float(np.asarray(err, float)[0])
     energy = case.energy(p, stacked)
-    ref_energy = (case.reference_energy(p, stacked["t"]) if hasattr(case, "reference_energy")
-                  else None)
+    ref_energy = case.reference_energy(p, stacked["t"])
     if energy is not None:
         ref = np.full(len(energy), energy[0]) if ref_energy is None else ref_energy
-        mask = (case.energy_mask(p, stacked["t"]) if hasattr(case, "energy_mask")
-                else np.ones(len(energy), bool))
+        mask = case.energy_mask(p, stacked["t"])
+        mask = np.ones(len(energy), bool) if mask is None else mask
         out["energy_drift"] = energy_drift(energy[mask], ref[mask], case.energy_scale(p))
     if "constraint" in observed:
         out["constraint_drift"] = float(np.max(np.abs(observed["constraint"])))

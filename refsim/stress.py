@@ -137,14 +137,20 @@ def _probe(name, variant=None):
     if name not in known:
         raise ValueError(f"--case must be one of {known}, got {name!r}")
     case = get_case(name)
-    if not callable(getattr(case, "stability", None)):
-        able = [n for n in known if callable(getattr(get_case(n), "stability", None))]
+    if not _declares_stability(case):
+        able = [n for n in known if _declares_stability(get_case(n))]
         raise ValueError(f"--case {name!r} declares no stability parameter (no "
                          f"`stability(p)`); cases that do: {able}")
     if variant is not None and variant not in case.variants:
         raise ValueError(f"--variant must be one of {list(case.variants)} for {name!r}, got "
                          f"{variant!r}")
     return Probe(case, variant=variant), False
+
+
+def _declares_stability(case) -> bool:
+    """Whether the case declares a stability parameter (`Case.stability` overridden)."""
+    from refsim.case import Case
+    return type(case).stability is not Case.stability
 
 
 def criterion(spec, periods) -> Criterion:
