@@ -1,5 +1,7 @@
 """MuJoCo adapter on sphere contacts (mujoco 4.0.0): soft contacts with a calibrated
-restitution, momentum, Newton's cradle, the box of 100, settings and refusals.
+restitution, Newton's cradle, the box of 100, settings and refusals. Momentum in pair collisions,
+checked on every engine, is in tests/conformance/test_conformance_spheres.py (MuJoCo's bound
+1e-11: its Newton solver's convergence); the cases in tests/conformance/sphere_cases.py.
 
 MuJoCo has no restitution: contacts are its soft constraints in the direct form
 solref = (-K, -B), K = (pi / (N dt))^2 (an undamped contact lasts N = 10 steps), B found by
@@ -16,6 +18,7 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from sphere_cases import case_of, params
 
 from refsim.registry import get_engine
 from refsim_adapters.mujoco_engine.contact_params import CONTACT_STEPS, IMPEDANCE, contact_stiffness
@@ -28,18 +31,6 @@ from refsim.testing import accuracy
 SE = "symplectic_euler"
 ENGINE = get_engine("mujoco")
 PAIR_SECONDS = 0.5  # the pair meets at 0.4 s; the outcome is compared from 0.45 s
-
-
-def case_of(variant):
-    """Name of the contact case that holds `variant`."""
-    if variant == "cradle":
-        return "newtons_cradle"
-    return "sphere_box" if variant.startswith("box_") else "sphere_pairs"
-
-
-def _case(variant, **over):
-    c = get_case(case_of(variant))
-    return c, c.variant_params(variant, over)
 
 
 def _run(variant, dt=1e-3, engine_variant="", integrator=SE, **over):
@@ -63,7 +54,7 @@ def test_head_on_outcome_is_within_the_calibration_residual(variant, engine_vari
     spread over contact onsets). Each velocity then errs by |de| mu v_rel / m_i, the stacked
     error by |de| mu v_rel sqrt(1/m1^2 + 1/m2^2). Measured (dt 1e-3): 2.8e-3 (e = 1),
     5.3e-2 (e = 0.5), 3.2e-3 and 5.9e-2 for masses 1:3; residuals 2.0e-3 and 4.8e-2."""
-    c, p = _case(variant, duration=PAIR_SECONDS)
+    c, p = params(variant, duration=PAIR_SECONDS)
     row = _run(variant, engine_variant=engine_variant, duration=PAIR_SECONDS)
     assert (row["consistency"] == "consistent"), (row["err_max"], row["tolerance"])
     residual = _settings(row)["restitution_mapping"]["residual_max"]
@@ -89,7 +80,7 @@ def test_oblique_outcome_and_why_it_is_off():
     to dtheta = v_t T / (2 r). The stacked error is then at most sqrt(2) j/m dtheta, where
     j/m = (1 + e) mu/m v_n. It grows linearly with T: measured 3.5e-2, 7.3e-2 at dt 5e-4, 1e-3
     (0.32 at 4e-3, beyond the case's 0.2 tolerance: a 40 ms contact)."""
-    c, p = _case("oblique", duration=PAIR_SECONDS)
+    c, p = params("oblique", duration=PAIR_SECONDS)
     r, b, v, e = p["radius"], p["impact"], p["speed"], p["restitution"]
     n = np.array([math.sqrt(4 * r * r - b * b), 0.0, b]) / (2 * r)
     v_n, v_t = 2 * v * n[0], 2 * v * n[2]  # relative normal and tangential speeds
@@ -129,7 +120,7 @@ def test_friction_reaches_stick_but_cuts_the_normal_rebound():
     and the normal force together: the normal rebound speed comes out 0.52 instead of 0.87,
     so the row misses the case's 0.2 tolerance (error 0.48; 0.47 coupled, 0.54 under rk4).
     Measured, not loosened."""
-    c, p = _case("oblique_friction", duration=PAIR_SECONDS)
+    c, p = params("oblique_friction", duration=PAIR_SECONDS)
     row = _run("oblique_friction", duration=PAIR_SECONDS)
     v_exact, w_exact = c.outcome(p)
     r, b = p["radius"], p["impact"]
@@ -145,7 +136,7 @@ def test_friction_reaches_stick_but_cuts_the_normal_rebound():
 def test_angular_momentum_is_conserved_through_a_frictional_impact():
     """Friction acts at the contact point: sum(x x m v + I w) about the origin is conserved
     (w is reported in the world frame)."""
-    c, p = _case("oblique_friction", duration=PAIR_SECONDS)
+    c, p = params("oblique_friction", duration=PAIR_SECONDS)
     tr = _run("oblique_friction", duration=PAIR_SECONDS)["trajectory"]
     m = np.array([p["mass"], p["mass"] * p["ratio"]])
     inertia = 0.4 * m * p["radius"] ** 2
@@ -167,22 +158,7 @@ def test_world_frame_rotation_matches_mujoco():
 
 
 # ---------------------------------------------------------------------------------------------
-# 2. momentum
-# ---------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("variant", ["head_on", "head_on_1to3_e0.5", "oblique",
-                                     "oblique_friction", "cradle"])
-@pytest.mark.parametrize("engine_variant", ["", "coupled"])
-def test_momentum_is_conserved(variant, engine_variant):
-    """Every contact force enters both spheres as +-f (J^T f), but MuJoCo's Newton solver
-    iterates on the accelerations themselves, so momentum holds to the solver's convergence
-    (tolerance 1e-10), not to round-off: measured ~1e-16 (default, d = 1e-4: R dominates and
-    one iteration solves it) and <= 3e-13 (coupled, d = 0.9999). Bound 1e-11."""
-    row = _run(variant, engine_variant=engine_variant)
-    assert row["momentum_drift"] < 1e-11
-
-
-# ---------------------------------------------------------------------------------------------
-# 3. Newton's cradle: MuJoCo's outcome against the ideal (striker stops, last ball leaves at v)
+# 2. Newton's cradle: MuJoCo's outcome against the ideal (striker stops, last ball leaves at v)
 # ---------------------------------------------------------------------------------------------
 CRADLE = {
     # independent spring-dashpots (DEM): the pulse disperses along the chain (a linear chain
@@ -197,7 +173,7 @@ CRADLE = {
 
 @pytest.mark.parametrize("engine_variant", ["", "coupled"])
 def test_cradle_outcome_is_the_measured_soft_contact_one_not_the_ideal(engine_variant):
-    c, p = _case("cradle")
+    c, p = params("cradle")
     row = _run("cradle", engine_variant=engine_variant)
     v = row["trajectory"]["v"][-1]
     expected, energy_ratio = CRADLE[engine_variant]
@@ -223,12 +199,12 @@ def test_cradle_outcome_does_not_depend_on_dt():
 
 
 # ---------------------------------------------------------------------------------------------
-# 4. the box of 100 spheres, e = 1
+# 3. the box of 100 spheres, e = 1
 # ---------------------------------------------------------------------------------------------
 def _contact_free_energy(variant="box_100", dt=1e-3, seconds=1.0):
     """Kinetic energy at the steps where no contact is active (springs unloaded), relative
     to E0; the case's energy_drift samples kinetic energy with contacts loaded."""
-    c, p = _case(variant)
+    c, p = params(variant)
     sim = ENGINE.build(c.scene(p), dt, SE)
     m, inertia = p["mass"], 0.4 * p["mass"] * p["radius"] ** 2
 
@@ -263,12 +239,12 @@ def test_box_100_runs_conserves_energy_and_reports_penetration():
 
 
 # ---------------------------------------------------------------------------------------------
-# 5. settings and the compiled model; refusals
+# 4. settings and the compiled model; refusals
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("variant,condim", [("head_on_e0.5", 1), ("oblique_friction", 3),
                                             ("box_100", 1)])
 def test_settings_report_contact_model_and_mapping(variant, condim):
-    c, p = _case(variant)
+    c, p = params(variant)
     scene = c.scene(p)
     sim = ENGINE.build(scene, 1e-3, SE)
     s = json.loads(json.dumps(sim.settings()))
@@ -351,7 +327,7 @@ def test_unsupported_contact_scenes_give_specific_reasons(scene, integrator, wor
 
 
 def test_contact_scenes_offer_coupled_and_other_scenes_only_the_default():
-    c, p = _case("head_on")
+    c, p = params("head_on")
     assert {"contacts", "walls"} <= ENGINE.capabilities
     assert ENGINE.variants(c.scene(p)) == ("", "coupled")
     free_fall = get_case("free_fall")

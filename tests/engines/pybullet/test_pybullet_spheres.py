@@ -1,6 +1,8 @@
-"""pybullet on sphere contacts (refsim issue 4): exact impulse outcomes head-on, the impulse law
-on the overlapped pose for oblique impacts, momentum, the cradle as pybullet solves it, walls,
-the box's energy, settings and refusals.
+"""pybullet on sphere contacts (refsim issue 4): the impulse law on the overlapped pose for
+oblique impacts, the cradle as pybullet solves it, walls, the box's energy, settings and
+refusals. The exact head-on outcomes and momentum in pair collisions, checked on every engine,
+are in tests/conformance/test_conformance_spheres.py; the cases in
+tests/conformance/sphere_cases.py.
 
 pybullet is imported here on purpose: CI must have every engine, so a missing package fails at
 import instead of skipping. Facts measured on pybullet 3.2.7
@@ -12,6 +14,7 @@ import math
 import numpy as np
 import pybullet  # noqa: F401  (fail, never skip, without the engine)
 import pytest
+from sphere_cases import case_of
 
 from refsim.registry import get_engine
 from refsim.registry import get_case
@@ -24,19 +27,10 @@ SE = "symplectic_euler"
 PAIR_CASE = get_case("sphere_pairs")
 CRADLE_CASE = get_case("newtons_cradle")
 BOX_CASE = get_case("sphere_box")
-HEAD_ON = ("head_on", "head_on_e0.5", "head_on_1to3", "head_on_1to3_e0.5")
-PAIRS = HEAD_ON + ("oblique", "oblique_friction")
-
-
-def case_of(variant):
-    """The contact case that holds `variant`."""
-    if variant == "cradle":
-        return CRADLE_CASE
-    return BOX_CASE if variant.startswith("box_") else PAIR_CASE
 
 
 def _row(variant, dt=1e-3, **params):
-    row = accuracy(case_of(variant).name, variant, "pybullet", SE, dt, **params)
+    row = accuracy(case_of(variant), variant, "pybullet", SE, dt, **params)
     assert row["status"] == "ok", row["reason"]
     return row
 
@@ -61,20 +55,9 @@ def _first_impact(scene, dt, max_steps=100000):
 
 
 # ---------------------------------------------------------------------------------------------
-# 1. Post-collision velocities against the exact outcome
+# 1. Post-collision velocities against the exact outcome (head-on, exact:
+#    tests/conformance/test_conformance_spheres.py)
 # ---------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("variant", HEAD_ON)
-@pytest.mark.parametrize("dt,speed", [(1e-3, 1.0), (4e-3, 0.97)])
-def test_head_on_outcome_is_exact(variant, dt, speed):
-    """Head-on, the normal does not depend on where in the step the overlap is found, so
-    Newton's law gives the exact outcome at any dt: measured 0.0 (touching exactly at a step
-    end, speed 1) and 0.0 (found 7 mm overlapped, speed 0.97, dt 4e-3). With pybullet's
-    contactSlop default (1e-5 m) the first gave -0.995 instead of -1."""
-    row = _row(variant, dt, speed=speed, duration=0.7)
-    assert (row["consistency"] == "consistent"), (row["err_max"], row["tolerance"])
-    assert row["err_max"] <= 1e-12 * speed
-
-
 @pytest.mark.parametrize("variant", ["oblique", "oblique_friction"])
 def test_oblique_is_within_the_discrete_detection_bound(variant):
     """Oblique impacts are not exact: the contact is found at the first step end where the
@@ -111,18 +94,7 @@ def test_oblique_is_the_impulse_law_on_the_overlapped_pose(variant, dt):
 
 
 # ---------------------------------------------------------------------------------------------
-# 2. Momentum in pair collisions
-# ---------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("variant", PAIRS)
-def test_pair_momentum_is_conserved_to_round_off(variant):
-    """Bound 1e-12 (relative to sum m |v0|): every contact impulse, normal and friction, acts
-    equally and oppositely on the two spheres, so only the round-off of adding it to O(1)
-    velocities remains (measured 0.0 on every pair variant)."""
-    assert _row(variant)["momentum_drift"] <= 1e-12
-
-
-# ---------------------------------------------------------------------------------------------
-# 3. Newton's cradle: the engine's outcome, and how it departs from the ideal
+# 2. Newton's cradle: the engine's outcome, and how it departs from the ideal
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("dt", [1e-3, 4e-3])
 def test_cradle_moves_the_touching_chain_as_one_body(dt):
@@ -184,7 +156,7 @@ def test_wall_impact_is_the_impulse_law(walls, e, mu):
 
 
 # ---------------------------------------------------------------------------------------------
-# 4. The box: energy at e = 1, penetration
+# 3. The box: energy at e = 1, penetration
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("variant,duration", [("box_100", 1.0), ("box_1000", 0.2)])
 def test_box_conserves_energy(variant, duration):
@@ -220,7 +192,7 @@ def test_build_keeps_the_scene_order_across_batches():
 
 
 # ---------------------------------------------------------------------------------------------
-# 5. Settings and refusals
+# 4. Settings and refusals
 # ---------------------------------------------------------------------------------------------
 def test_settings_report_the_contact_model_and_mappings():
     p = PAIR_CASE.variant_params("head_on_e0.5", {"friction": 0.36})

@@ -1,53 +1,26 @@
-"""pymunk's pivoted rigid bodies (adapters/pymunk_engine/groups/pivots.py): the compound
-pendulum (a rod of length L pivoted at one end, I = m L^2 / 12 about its centre, swinging in the
-x-z plane) against the pendulum closed form with w0^2 = 3 g / (2 L) (cases/particles/pendulum.py
-exact_pendulum); pivot drift, energy, the plane mapping and the "pymunk is 2D" refusals.
+"""pymunk's pivoted rigid bodies (adapters/pymunk_engine/groups/pivots.py), what is pymunk's own:
+the options its settings report, the pivot's drift (a constraint, not a generalized coordinate), the
+energy of its drift-kick step and the "pymunk is 2D" refusals. The compound pendulum's
+convergence to its closed form (w0^2 = 3 g / (2 L)) and the group's claim with the integrator's
+name and order and the observation contract, shared with the other pivot engines, are in
+tests/conformance/test_conformance_pivots.py; the rod (length L pivoted at one end, I = m L^2 /
+12 about its centre, swinging in the x-z plane) in tests/conformance/pivot_scenes.py.
 pymunk is imported on purpose: CI must have every engine (fail, never skip).
 """
-import json
-
 import numpy as np
 import pymunk  # noqa: F401  (fail, never skip, without the engine)
 import pytest
+from pivot_scenes import EPS, G, L, M, pivoted, rod, run, top
 from scipy.spatial.transform import Rotation
 
-from refsim_cases.particles.pendulum import exact_pendulum
-from refsim.engine import jsonable
-from refsim.observation import check_observation
 from refsim.registry import get_engine
-from refsim.scene import RigidBodies, Scene
-from refsim.scene.pivots import RigidPivots
 
 ENGINE = get_engine("pymunk")
 DK = "symplectic_euler_dk"
-G, L, M, THETA0 = 9.81, 1.0, 1.0, 1.0
-EPS = np.finfo(float).eps
-W0 = np.sqrt(1.5 * G / L)  # compound pendulum: m g (L/2) / (m L^2/12 + m L^2/4) = 3 g / (2 L)
 
 
-def _rot(q):
-    return Rotation.from_quat(np.roll(q, -1)).as_matrix()
-
-
-def _pivoted(inertia, point, q0, w_world0=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, -G)):
-    R, w = _rot(q0), np.asarray(w_world0, float)
-    x0 = -R @ point
-    rigid = RigidBodies(mass=[M], inertia=[inertia], position=[x0], orientation=[q0],
-                        velocity=[np.cross(w, x0)], angular_velocity=[w])
-    return Scene(rigid=rigid, gravity=gravity, planar=True,
-                 extra=(RigidPivots(body=[0], body_point=[point], anchor=[[0.0, 0.0, 0.0]]),))
-
-
-def _rod(theta0=THETA0):
-    """The rod along its body z, pivot at its top end, turned by theta0 about +y: its centre
-    starts at -(L/2) (sin theta0, 0, cos theta0), the angle -theta0 from straight down."""
-    q0 = np.array([np.cos(theta0 / 2), 0.0, np.sin(theta0 / 2), 0.0])
-    inertia = np.diag([M * L * L / 12, M * L * L / 12, 1e-4 * M * L * L])
-    return _pivoted(inertia, np.array([0.0, 0.0, L / 2]), q0)
-
-
-def _angle_of_centre(obs):
-    return np.arctan2(obs["x"][0][0], -obs["x"][0][2])
+def _rod():
+    return rod(planar=True)  # pymunk is 2D: planar scenes only
 
 
 def _energy(obs):
@@ -55,25 +28,16 @@ def _energy(obs):
     return 0.5 * M * v @ v + 0.5 * (M * L * L / 12) * w @ w + M * G * x[2]
 
 
-def _run(scene, h, t):
-    sim = ENGINE.build(scene, h, DK)
-    sim.step(round(t / h))
-    assert sim.failure is None
-    return sim.observe()
-
-
-def test_group_claims_planar_pivots_and_reports_settings():
+def test_settings_report_the_space_and_the_rod_is_observed_at_start():
+    """What pymunk's settings add to the integrator's name and order (checked with the claim in
+    tests/conformance/test_conformance_pivots.py); t = 0 gives back the scene to round-off."""
     scene = _rod()
-    assert ENGINE.group_for(scene).name == "pivots"
     sim = ENGINE.build(scene, 1e-3, DK)
     settings = sim.settings()
-    json.dumps(jsonable(settings))
-    assert settings["integrator"]["name"] == DK and settings["integrator"]["order"] == 1
     assert settings["joints"]["error_bias"] == [0.0]
     assert settings["space"]["damping"] == 1.0 and settings["space"]["gravity"] == [0.0, -G]
     assert settings["bodies"]["moment"] == [pytest.approx(M * L * L / 12, rel=4 * EPS)]
     obs = sim.observe()
-    assert check_observation(obs, scene) == []
     r = scene.rigid
     for name, want in (("x", r.position), ("v", r.velocity), ("q", r.orientation),
                        ("w", r.angular_velocity)):
@@ -81,30 +45,11 @@ def test_group_claims_planar_pivots_and_reports_settings():
     assert obs["orientation_defect"][0] == 0.0 and obs["pivot_gap"][0] < 4 * EPS
 
 
-def test_rod_converges_to_the_compound_pendulum_at_order_one():
-    """Angle of the centre at t = 2 s against the closed form, h = 2, 1, 0.5 ms: each halving
-    shows order 1 within 0.15 (asymptotic range: w0 h <= 0.01, relative corrections O(w0 h);
-    measured 1.011 and 1.005). The orientation q carries the same angle as the centre up to the
-    pivot's drift: |angle(q) - angle(x)| <= 2 pivot_gap / (L/2) (the gap moves the centre by at
-    most the gap, an angle of gap / (L/2); factor 2 for the gap before and after the step)."""
-    t = 2.0
-    exact = -exact_pendulum(THETA0, W0, t)[0]
-    errors = []
-    for h in (2e-3, 1e-3, 5e-4):
-        obs = _run(_rod(), h, t)
-        errors.append(abs(_angle_of_centre(obs) - exact))
-        R = _rot(obs["q"][0])
-        angle_q = -np.arctan2(R[0, 2], R[2, 2])
-        assert abs(angle_q - _angle_of_centre(obs)) <= 2 * obs["pivot_gap"][0] / (L / 2)
-    orders = np.log2(np.array(errors[:-1]) / errors[1:])
-    assert np.all(np.abs(orders - 1.0) < 0.15), (errors, orders)
-
-
 def test_pivot_gap_is_second_order():
     """error_bias = 0: each step's bias velocity removes the whole gap, so what remains is the
     one-step drift of the curved path, O(h^2): a halving divides it by 4 (order 2 within 0.15,
     measured 1.99 and 2.00)."""
-    gaps = [_run(_rod(), h, 2.0)["pivot_gap"][0] for h in (2e-3, 1e-3, 5e-4)]
+    gaps = [run(ENGINE, _rod(), h, DK, 2.0)["pivot_gap"][0] for h in (2e-3, 1e-3, 5e-4)]
     orders = np.log2(np.array(gaps[:-1]) / gaps[1:])
     assert np.all(np.abs(orders - 2.0) < 0.15), (gaps, orders)
 
@@ -127,15 +72,12 @@ def test_energy_error_is_bounded_not_secular():
 
 
 def test_refusals_say_pymunk_is_2d():
-    tilt = 0.3
-    q0 = np.array([np.cos(tilt / 2), np.sin(tilt / 2), 0.0, 0.0])  # about x: out of plane
-    top = _pivoted(np.diag([0.2, 0.2, 0.05]), np.array([0.0, 0.0, -0.5]), q0,
-                   w_world0=_rot(q0) @ np.array([0.0, 0.0, 10.0]))
-    assert ENGINE.supports(top, DK).startswith("pymunk is 2D")
+    top_out_of_plane = top(planar=True)  # tilted 0.3 rad about x: out of plane
+    assert ENGINE.supports(top_out_of_plane, DK).startswith("pymunk is 2D")
     skew = Rotation.from_rotvec([0.2, 0.0, 0.3]).as_matrix()  # principal axes off y
     inertia = skew @ np.diag([0.1, 0.2, 0.3]) @ skew.T
-    tilted = _pivoted(inertia, np.array([0.0, 0.0, L / 2]),
-                      np.array([np.cos(0.5), 0.0, np.sin(0.5), 0.0]))
+    tilted = pivoted(M, inertia, np.array([0.0, 0.0, L / 2]),
+                     np.array([np.cos(0.5), 0.0, np.sin(0.5), 0.0]), planar=True)
     reason = ENGINE.supports(tilted, DK)
     assert reason.startswith("pymunk is 2D") and "principal axis" in reason
     assert ENGINE.supports(_rod(), DK) is None

@@ -1,4 +1,6 @@
-"""pymunk adapter on sphere contacts: impulse outcomes, momentum, Newton's cradle, settings.
+"""pymunk adapter on sphere contacts: oblique impulse outcomes, Newton's cradle, settings. The
+exact head-on outcomes and momentum in pair collisions, checked on every engine, are in
+tests/conformance/test_conformance_spheres.py; the cases in tests/conformance/sphere_cases.py.
 
 pymunk (7.3.1, Munk2D 2.0.1) must be installed: a missing engine fails at import, never skips.
 pymunk is 2D: the pair and the cradle stay in the x-z plane and run; the 3D box is refused.
@@ -13,52 +15,21 @@ import time
 import numpy as np
 import pymunk
 import pytest
+from sphere_cases import case_of, params
 
 from refsim.registry import get_engine
-from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Scene, Wall
 from refsim.testing import accuracy
 
 DK = "symplectic_euler_dk"
 PYMUNK = get_engine("pymunk")
-PAIRS = ["head_on", "head_on_e0.5", "head_on_1to3", "head_on_1to3_e0.5", "oblique",
-         "oblique_friction"]
-
-
-def case_of(variant):
-    """Name of the contact case that holds `variant`."""
-    if variant == "cradle":
-        return "newtons_cradle"
-    return "sphere_box" if variant.startswith("box_") else "sphere_pairs"
-
-
-def _params(variant, **over):
-    c = get_case(case_of(variant))
-    return c, c.variant_params(variant, over)
 
 
 def _run(variant, dt=1e-3, **over):
     return accuracy(case_of(variant), variant, "pymunk", DK, dt, **over)
 
 
-# 1. post-collision velocities ------------------------------------------------------------------
-@pytest.mark.parametrize("variant, expected", [
-    ("head_on", (-1.0, 1.0)), ("head_on_e0.5", (-0.5, 0.5)),
-    ("head_on_1to3", (-2.0, 0.0)), ("head_on_1to3_e0.5", (-1.25, -0.25))])
-@pytest.mark.parametrize("dt", [4e-3, 1e-3, 5e-4])
-def test_head_on_outcome_is_exact(variant, expected, dt):
-    """Head-on, the normal is along x however deep the overlap at detection, and one impulse
-    pass sets the normal relative velocity to -e times its value before the step: Newton's
-    law exactly (the values of docs/engine_notes.md#exact-head-on-collision-outcomes), within
-    the case's 1e-9 impulse tolerance (measured 0)."""
-    row = _run(variant, dt)
-    assert row["status"] == "ok" and (row["consistency"] == "consistent"), row["reason"]
-    assert row["err_max"] <= 1e-12
-    v_final = row["trajectory"]["v"][-1]
-    assert v_final[:, 0] == pytest.approx(expected, abs=1e-12)
-    assert np.abs(v_final[:, 1:]).max() == 0.0
-
-
+# 1. post-collision velocities (head-on, exact: tests/conformance/test_conformance_spheres.py) --
 def _detection_step(sim, v_before):
     """Step one at a time until the velocities change; the positions then are the drifted
     pose at which pymunk found the overlap (its solver does not move positions)."""
@@ -96,7 +67,7 @@ def test_impact_helper_reproduces_the_case_outcome():
     """The helper, at the exact contact pose, gives the case's exact outcome (a cross-check
     of both; the friction variant sticks: slip impulse 3/7 < mu jn = 0.52)."""
     for variant in ("oblique", "oblique_friction", "head_on_1to3_e0.5"):
-        c, p = _params(variant)
+        c, p = params(variant)
         x0, v0, m, w0 = c.initial_state(p)
         x_c = x0 + v0 * c.contact_time(p)
         v1, w1 = _impact(x_c, v0, w0, m, p["radius"], p["restitution"], p["friction"])
@@ -113,7 +84,7 @@ def test_oblique_outcome_is_newton_law_at_the_detected_pose(variant, over, dt):
     """What pymunk computes, to round-off: the impact law along the centre line of the
     overlapping pose it detects (up to one step after contact), with the spin mapped as
     pymunk w = -(refsim w_y). A wrong spin sign misses by 0.81 m/s on the friction variant."""
-    c, p = _params(variant, **over)
+    c, p = params(variant, **over)
     x0, v0, m, w0 = c.initial_state(p)
     sim = PYMUNK.build(c.scene(p), dt, DK)
     obs = _detection_step(sim, v0)
@@ -137,25 +108,14 @@ def test_oblique_misses_the_exact_outcome_by_the_detection_tilt(variant, dt, err
     assert row["status"] == "ok" and (row["consistency"] == "consistent"), row["reason"]
     assert row["err_max"] == pytest.approx(err, rel=0.01)
     assert row["err_max"] > 1e-9  # not exact, see above
-    c, p = _params(variant)
+    c, p = params(variant)
     delay = math.ceil(c.contact_time(p) / dt) * dt - c.contact_time(p)  # first step past t_c
     v_rel = 2 * p["speed"]
     assert row["err_max"] <= (1 + p["restitution"]) * v_rel * 2 * v_rel * max(delay, 0) / (
         2 * p["radius"]) + 1e-12
 
 
-# 2. momentum -----------------------------------------------------------------------------------
-@pytest.mark.parametrize("variant", PAIRS)
-def test_momentum_conserved_in_pair_collisions(variant):
-    """Chipmunk applies every contact impulse as -j on one body and +j on the other
-    (apply_impulses), so the total momentum changes only by the rounding of m (v +- j/m):
-    a few ulps of sum m|v0| per impact. Bound 1e-14 (measured 0 on every pair variant)."""
-    row = _run(variant)
-    assert row["status"] == "ok"
-    assert row["momentum_drift"] <= 1e-14
-
-
-# 3. Newton's cradle ----------------------------------------------------------------------------
+# 2. Newton's cradle ----------------------------------------------------------------------------
 
 
 def test_cradle_with_exactly_touching_spheres_reaches_the_ideal():
@@ -172,7 +132,7 @@ def test_cradle_with_exactly_touching_spheres_reaches_the_ideal():
 
 def _cradle_scene(gap):
     """The case's cradle with the resting spheres' gaps set to `gap` (m) exactly."""
-    c, p = _params("cradle")
+    c, p = params("cradle")
     scene = c.scene(p)
     x1 = scene.bodies[1].position[0]
     bodies = list(scene.bodies)
@@ -198,7 +158,7 @@ def test_cradle_outcome_is_decided_by_which_spheres_touch(gap, iterations, expec
     assert 0.5 * np.sum(v * v) == pytest.approx(0.5, abs=1e-9)
 
 
-# 4. the box ------------------------------------------------------------------------------------
+# 3. the box ------------------------------------------------------------------------------------
 @pytest.mark.parametrize("variant", ["box_100", "box_1000"])
 def test_box_is_refused_as_3d(variant):
     row = _run(variant)
@@ -206,9 +166,9 @@ def test_box_is_refused_as_3d(variant):
     assert "pymunk is 2D" in row["reason"] and "3D" in row["reason"]
 
 
-# 5. settings -----------------------------------------------------------------------------------
+# 4. settings -----------------------------------------------------------------------------------
 def test_settings_report_contact_model_and_mappings():
-    c, p = _params("oblique_friction", restitution=0.5)
+    c, p = params("oblique_friction", restitution=0.5)
     sim = PYMUNK.build(c.scene(p), 1e-3, DK)
     s = json.loads(json.dumps(sim.settings()))
     assert s["contact_model"] == "impulse" and s["detection"] == "discrete"
@@ -227,7 +187,7 @@ def test_settings_report_contact_model_and_mappings():
 
 def test_moment_is_the_spheres_not_recomputed_from_the_circle():
     """pymunk.moment_for_circle(m, 0, r) is a disc's 1/2 m r^2; the bodies keep 2/5 m r^2."""
-    c, p = _params("head_on")
+    c, p = params("head_on")
     scene = c.scene(p)
     sim = PYMUNK.build(scene, 1e-3, DK)
     assert [b.moment for b in sim.bodies] == [b.inertia for b in scene.bodies]
@@ -259,7 +219,7 @@ def test_position_correction_never_touches_velocities(restitution):
     (bias 0) give the same velocities as the adapter's correction-off setting to 1e-15; only
     positions move (by up to the overlap, 4.5e-3 m at dt = 4e-3). With the default slop
     0.1 m (the sphere radius) nothing in these scenes is ever corrected."""
-    c, p = _params("oblique", restitution=restitution)
+    c, p = params("oblique", restitution=restitution)
     finals = []
     for slop, bias in ((None, None), (0.1, 0.9 ** 60), (0.0, 0.9 ** 60), (0.0, 0.0)):
         sim = PYMUNK.build(c.scene(p), 4e-3, DK)
@@ -299,7 +259,7 @@ def test_planar_wall_reverses_the_normal_velocity(dim, e):
 
 def test_spin_round_trips_with_the_plane_mapping():
     """refsim spin about +y (3D, x-z plane) is pymunk's -w; observed back as +y."""
-    c, p = _params("oblique_friction")
+    c, p = params("oblique_friction")
     sim = PYMUNK.build(c.scene(p), 1e-3, DK)
     assert sim.bodies[0].angular_velocity == -20.0
     assert sim.observe()["w"][0] == pytest.approx([0.0, 20.0, 0.0])

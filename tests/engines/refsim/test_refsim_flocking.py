@@ -1,5 +1,6 @@
-"""The in-house flocking and emitter groups: conservation, orders, exact discrete parabolas,
-counts, and the slide's sprinkler as printed."""
+"""The in-house flocking and emitter groups: conservation, orders, counts, and the slide's
+sprinkler as printed. Every emitted particle on the exact discrete parabola of its stepper, as on
+taichi, is checked in tests/conformance/test_conformance_emitter.py."""
 import numpy as np
 import pytest
 
@@ -51,25 +52,6 @@ def test_boids_converge_at_the_nominal_order(integrator, order):
         errors.append(np.abs(obs["x"] - ref["x"]).max())
     # the ratio of two errors one halving apart: 2^p up to the next term, O(h) relative
     assert np.log2(errors[0] / errors[1]) == pytest.approx(order, abs=0.2)
-
-
-@pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler",
-                                        "symplectic_euler_dk", "rk4", "stormer_verlet",
-                                        "leapfrog", "velocity_verlet", "heun"])
-@pytest.mark.parametrize("formulation", ["corrected", "as_printed"])
-def test_every_particle_on_its_exact_discrete_path(integrator, formulation):
-    dt = 0.01
-    p, obs = _run(EMITTER, "default", integrator, dt, formulation)
-    e, g = EMITTER.emitter(p), EMITTER.gravity(p)
-    live = obs["id"] >= 0
-    ids = obs["id"][live]
-    k = np.rint((obs["t"][:, None] - obs["birth"])[live] / dt)
-    x0, v0 = e.spawn_states(ids)
-    xe, ve = em.discrete_path(integrator, x0, v0, g, dt, k, formulation)
-    bound, _ = EMITTER.tolerance(p, "rk4", 4, dt)  # the round-off part: n eps S
-    assert np.abs(obs["x"][live] - xe).max() <= bound
-    assert np.abs(obs["v"][live] - ve).max() <= bound
-    assert np.array_equal(obs["birth"][live], em.birth_steps(e, dt, ids, formulation) * dt)
 
 
 @pytest.mark.parametrize("dt", [0.01, 0.004])

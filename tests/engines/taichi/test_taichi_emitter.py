@@ -1,54 +1,21 @@
-"""taichi's emitter kernels: every particle on the exact discrete parabola of its stepper (to
-round-off), and the same ids, births, counts and states as refsim's group, per stepper and
-formulation, with births falling inside and between launches of any length."""
+"""taichi's emitter kernels, what is taichi's own: the same counts as refsim's group over a whole
+run, a dense emitter (several births a step, two per slot in one launch), settings and
+refusals. Every particle on the exact discrete parabola of its stepper (to round-off) and the
+same ids, births and states as refsim's group, per stepper and formulation, with births falling
+inside and between launches of any length, is checked in
+tests/conformance/test_conformance_emitter.py."""
 import numpy as np
 import pytest
 
 pytest.importorskip("taichi")
 
-from refsim_cases.particle_fields.sprinkler import CASE as EMITTER
-from refsim.models import emitter as em
-from refsim.registry import get_engine
+from emitter_runs import EMITTER  # noqa: E402
+from emitter_runs import run as _run  # noqa: E402
+
+from refsim.models import emitter as em  # noqa: E402
+from refsim.registry import get_engine  # noqa: E402
 
 STEPPERS = ("symplectic_euler", "velocity_verlet", "rk4", "explicit_euler", "midpoint")
-CHUNKS = (1, 2, 3, 7, 10, 13, 1, 40)  # Sim.step(n) lengths: births mid-launch and at its end
-
-
-def _run(engine, p, integrator, dt, formulation, chunks=CHUNKS):
-    sim = get_engine(engine).build(EMITTER.scene(p), dt, integrator, formulation)
-    out = [sim.observe()]
-    for n in chunks:
-        sim.step(n)
-        out.append(sim.observe())
-    settings = sim.settings()
-    sim.close()
-    return {k: np.array([o[k] for o in out]) for k in out[0]}, settings
-
-
-@pytest.mark.parametrize("integrator", STEPPERS)
-@pytest.mark.parametrize("formulation", ["corrected", "as_printed"])
-@pytest.mark.parametrize("dt", EMITTER.dts(EMITTER.variant_params("default")))
-def test_every_particle_on_its_exact_discrete_path_as_refsim(integrator, formulation, dt):
-    p = EMITTER.variant_params("default")
-    obs, settings = _run("taichi", p, integrator, dt, formulation)
-    ref, _ = _run("refsim", p, integrator, dt, formulation)
-    e, g = EMITTER.emitter(p), EMITTER.gravity(p)
-    live = obs["id"] >= 0
-    ids = obs["id"][live]
-    k = np.rint((obs["t"][:, None] - obs["birth"])[live] / dt)
-    x0, v0 = e.spawn_states(ids)
-    xe, ve = em.discrete_path(integrator, x0, v0, g, dt, k, formulation)
-    # the case's round-off part: n eps S over a life's steps plus the run's
-    bound, _ = EMITTER.tolerance(p, "rk4", 4, dt)
-    assert np.abs(obs["x"][live] - xe).max() <= bound
-    assert np.abs(obs["v"][live] - ve).max() <= bound
-    for key in ("id", "birth", "emitted"):  # the same schedule, slot for slot
-        assert np.array_equal(obs[key], ref[key], equal_nan=True), key
-    # the same stepper arithmetic on the same numbers: equal to round-off (measured: bit
-    # for bit; both run refsim's tableau in the same order)
-    assert np.abs(obs["x"] - ref["x"]).max() <= bound
-    assert np.abs(obs["v"] - ref["v"]).max() <= bound
-    assert settings["dtype"] == "float64" and settings["capacity"] == obs["id"].shape[1]
 
 
 def test_counts_match_rate_times_time_and_refsim():

@@ -1,5 +1,9 @@
-"""taichi adapter on sphere contacts: exact impulse outcomes, momentum, Newton's cradle, the
-box, the broad phase, friction, gravity, determinism, settings.
+"""taichi adapter on sphere contacts: outcomes found overlapped, the overlap-normal variant,
+angular momentum, Newton's cradle, the box, the broad phase, friction, gravity, determinism,
+settings. The exact outcomes of every pair variant (head-on on every impulse engine, oblique on
+taichi by its time-of-impact normal) and momentum in pair collisions, checked with the other
+engines, are in tests/conformance/test_conformance_spheres.py; the cases in
+tests/conformance/sphere_cases.py.
 
 taichi (1.7.4) must be installed: a missing engine fails at import, never skips. The contact
 kernel is the adapter's own (kick-drift, grid broad phase, time-of-impact normal, Gauss-Seidel
@@ -7,81 +11,41 @@ Newton impulses with Guendelman stick/slide friction, positional projection).
 """
 from __future__ import annotations
 
-import functools
 import json
 
 import numpy as np
 import pytest
+import sphere_cases
+from sphere_cases import params
 
 from refsim.registry import get_engine
 from refsim_adapters.taichi_engine.runtime import import_taichi
-from refsim.registry import get_case
 from refsim.scene import Body, ContactModel, Joint, Scene, Wall
-from refsim.testing import accuracy
 
 SE = "symplectic_euler"
 TAICHI = get_engine("taichi")
-# docs/engine_notes.md#exact-head-on-collision-outcomes
-HEAD_ON = {"head_on": (-1.0, 1.0), "head_on_e0.5": (-0.5, 0.5),
-           "head_on_1to3": (-2.0, 0.0), "head_on_1to3_e0.5": (-1.25, -0.25)}
-PAIRS = list(HEAD_ON) + ["oblique", "oblique_friction"]
 import_taichi()  # CI must have every engine: fail here, not skip
 
 
-def case_of(variant):
-    """Name of the contact case that holds `variant`."""
-    if variant == "cradle":
-        return "newtons_cradle"
-    return "sphere_box" if variant.startswith("box_") else "sphere_pairs"
-
-
-def _params(variant, **over):
-    c = get_case(case_of(variant))
-    return c, c.variant_params(variant, over)
-
-
-@functools.lru_cache(maxsize=None)
-def _cached(variant, dt, engine_variant, over):
-    return accuracy(case_of(variant), variant, "taichi", SE, dt, engine_variant, **dict(over))
-
-
 def _run(variant, dt=1e-3, engine_variant="", **over):
-    """The accuracy row with its trajectory (cached: rows are read, never changed)."""
-    return _cached(variant, dt, engine_variant, tuple(sorted(over.items())))
+    """The accuracy row with its trajectory (cached per process, shared with the conformance
+    tests: rows are read, never changed)."""
+    return sphere_cases.row("taichi", variant, SE, dt, engine_variant, **over)
 
 
 def _sim(variant, dt=1e-3, engine_variant="", **over):
-    c, p = _params(variant, **over)
+    c, p = params(variant, **over)
     return TAICHI.build(c.scene(p), dt, SE, engine_variant)
 
 
-# 1. post-collision velocities ------------------------------------------------------------------
-@pytest.mark.parametrize("variant", PAIRS)
-@pytest.mark.parametrize("dt", [4e-3, 1e-3, 7e-4])
-def test_pair_outcome_is_exact(variant, dt):
-    """Newton's law along the normal at the touching pose, and (oblique_friction) Guendelman
-    stick/slide: the case's exact outcome to round-off (measured <= 6.5e-16 m/s), within its
-    1e-9 v impulse tolerance, whatever the step: at 4e-3 and 1e-3 the impact falls on a step
-    boundary (touching, within the contact slop), at 7e-4 inside a step (found overlapped)."""
-    row = _run(variant, dt)
-    assert row["status"] == "ok" and (row["consistency"] == "consistent"), (row["reason"], row["err_max"])
-    assert row["tolerance"] == pytest.approx(1e-9)
-    assert row["err_max"] <= 1e-14
-    c, p = _params(variant)
-    v_ref, w_ref = c.outcome(p)
-    traj = row["trajectory"]
-    assert np.abs(traj["v"][-1] - v_ref).max() <= 1e-14
-    assert np.abs(traj["w"][-1] - w_ref).max() <= 1e-13
-    if variant in HEAD_ON:
-        assert traj["v"][-1][:, 0].tolist() == pytest.approx(HEAD_ON[variant], abs=1e-15)
-
-
+# 1. post-collision velocities (exact on every pair variant at any dt, by the time of impact's
+#    normal: tests/conformance/test_conformance_spheres.py, test_pair_outcome_is_exact) -------
 @pytest.mark.parametrize("variant", ["head_on_1to3_e0.5", "oblique"])
 def test_outcome_exact_when_found_overlapped(variant):
     """At dt = 7e-4 the pair is found overlapped (by up to v_rel dt = 1.4e-3 m): the normal
     is backed up to the touching pose, so the outcome stays exact; projection then removes
     the overlap (none left at the samples), and positions are off by about the overlap."""
-    c, p = _params(variant)
+    c, p = params(variant)
     sim = TAICHI.build(c.scene(p), 7e-4, SE)
     sim.step(1000)
     stats = sim.contact_stats()
@@ -109,15 +73,7 @@ def test_overlap_normal_variant_misses_by_the_detection_tilt(variant, dt, err):
     assert (head_on["consistency"] == "consistent") and head_on["err_max"] <= 1e-14
 
 
-# 2. momentum -----------------------------------------------------------------------------------
-@pytest.mark.parametrize("variant", PAIRS)
-def test_momentum_conserved_in_pair_collisions(variant):
-    """Every impulse is +J on one sphere and -J on the other, and projection moves positions
-    only: the momentum drift is round-off (measured 0; bound 1e-14 of sum m |v0|)."""
-    for dt in (4e-3, 1e-3, 7e-4):
-        assert _run(variant, dt)["momentum_drift"] <= 1e-14
-
-
+# 2. momentum (in pair collisions: tests/conformance/test_conformance_spheres.py) ---------------
 @pytest.mark.parametrize("variant, dt, measured", [
     ("oblique_friction", 1e-3, 5.246e-4), ("oblique", 7e-4, 2.628e-4),
     ("oblique", 4e-3, 2.314e-3)])
@@ -127,7 +83,7 @@ def test_angular_momentum_departs_by_the_overlap(variant, dt, measured):
     touching) and projection moves the centres by the overlap delta without touching the
     velocities; both change L by O(m_red delta |v_rel|). Measured (kg m^2/s, to 1 %) about
     half of m_red delta_max |v_rel'|, asserted below it; head-on keeps it exactly."""
-    c, p = _params(variant)
+    c, p = params(variant)
     m = np.array([p["mass"], p["mass"] * p["ratio"]])
     inertia = 0.4 * m * p["radius"] ** 2
     sim = TAICHI.build(c.scene(p), dt, SE)
@@ -152,7 +108,7 @@ def test_cradle_reaches_the_ideal_outcome(dt, engine_variant):
     velocities: the striker's impact, then (1,2), (2,3), (3,4) within the same pass (the
     resting balls touch, gap <= slop, so they are contacts from the start), and a second
     pass finds nothing approaching. A simultaneous (Jacobi) treatment would depart."""
-    c, p = _params("cradle")
+    c, p = params("cradle")
     row = _run("cradle", dt, engine_variant)
     assert row["status"] == "ok" and (row["consistency"] == "consistent") and row["err_max"] == 0.0
     v_final = row["trajectory"]["v"][-1]
@@ -263,7 +219,7 @@ def test_friction_stick_and_slide_match_the_exact_impact(mu, regime):
     """Oblique impact with spin 20 rad/s: sticks when the impulse stopping the slip (3/7
     N s here) is within mu J_n, else slides with mu J_n. The case's exact outcome
     (velocities and spins) to round-off in both regimes."""
-    c, p = _params("oblique_friction", friction=mu)
+    c, p = params("oblique_friction", friction=mu)
     row = _run("oblique_friction", friction=mu)
     assert (row["consistency"] == "consistent") and row["err_max"] <= 1e-14
     _, w_ref = c.outcome(p)
@@ -344,7 +300,7 @@ def test_settings_report_contact_model_and_restitution_mapping():
     assert s["integrator"]["name"] == SE and s["dtype"] == "float64" and s["threads"] == 1
     assert s["default_fp"] == "f64" and "serialize=True" in s["time_loop"]
     assert s["step_order"].startswith("kick")
-    c, p = _params("head_on")
+    c, p = params("head_on")
     assert TAICHI.variants(c.scene(p)) == ("", "launch_per_step", "overlap_normal")
 
 
@@ -355,7 +311,7 @@ def test_observe_gives_per_sphere_shapes_and_the_initial_spin():
 
 
 def test_refusals_name_the_reason():
-    c, p = _params("head_on")
+    c, p = params("head_on")
     scene = c.scene(p)
     assert "symplectic_euler only" in TAICHI.supports(scene, "rk4")
     with pytest.raises(ValueError, match="symplectic_euler only"):

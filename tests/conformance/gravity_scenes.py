@@ -1,7 +1,8 @@
 """Scenes and in-house references shared by the engines' n-body gravity tests (MuJoCo,
-pybullet, pymunk): a Kepler pair started off an apsis, the figure-eight, the in-house steppers
-on the same pair kernel, and the invariants. Imported by basename (tests/engines/conftest.py
-puts this directory on the path)."""
+pybullet, pymunk; tests/conformance/test_conformance_gravity_pairs.py and each engine's
+test_<engine>_gravity_pairs.py): a Kepler pair started off an apsis, the figure-eight, the
+in-house steppers on the same pair kernel, and the invariants. Imported by basename
+(tests/engines/conftest.py puts this directory on the path)."""
 import numpy as np
 
 from refsim.integrators import get_integrator
@@ -80,3 +81,19 @@ def energy(obs, m):
 
 def angular_momentum(obs, m):
     return np.sum(m[:, None] * np.cross(obs["x"], obs["v"]), axis=0)
+
+
+def energy_and_l(engine, scene, integrator, variant, steps, periods=5):
+    """Step one at a time over `periods` periods of 2 pi (Kepler, a = 1, G M = 1) at
+    h = 2 pi / steps: (max |dE| in each period, max |dL| over the run)."""
+    m = scene.masses
+    sim = engine.build(scene, TWO_PI / steps, integrator, variant)
+    o0 = sim.observe()
+    de, dl = [], []
+    for _ in range(periods * steps):
+        sim.step(1)
+        o = sim.observe()
+        de.append(abs(energy(o, m) - energy(o0, m)))
+        dl.append(np.abs(angular_momentum(o, m) - angular_momentum(o0, m)).max())
+    sim.close()
+    return np.array(de).reshape(periods, steps).max(axis=1), max(dl)
