@@ -55,7 +55,10 @@ AT_SCALE = {("poisson_manufactured", "2d_1025"), ("poisson_manufactured", "3d_65
             # 95,378 explicit steps a run (32 stiff links settling): minutes per stepper
             ("hair_cantilever", "fine"),
             # its converged RK4 reference alone is ~3,000 steps on 2,500 nodes
-            ("cloth_hang", "n50")}
+            ("cloth_hang", "n50"),
+            # 1000 birds: 27-38 s per stepper in the contract's runs (the suite's slowest; CI
+            # has 20 minutes); cucker_smale runs the same code and the same exact bound
+            ("boids", "large")}
 
 
 # cases outside the slides' models, which the in-house engine refuses with this reason
@@ -98,6 +101,8 @@ def test_case_variant_sets_and_definition_are_storable(name):
     assert set(case.quick_variants) <= set(case.variants)
     assert set(case.default_variants) <= set(case.variants)
     for variant in case.variants:
+        if (name, variant) in AT_SCALE:  # its definition runs its converged reference
+            continue  # (cloth_hang n50: 31 s); its small siblings' take the same code
         p = case.variant_params(variant)
         definition = json.loads(json.dumps(case.definition(variant, p)))
         assert definition["case"] == name and definition["variant"] == variant
