@@ -1,5 +1,5 @@
 """`refsim bench inhouse` (the default bench): speed figures of the in-house engine, printed,
-on one core, and returned as data (one dict per figure, refsim.figure_runs) for the store.
+on one core, and returned as data (one dict per figure, refsim.store.figures) for the store.
 
 1. microseconds per RK4 step on one pendulum (the engine's Sim.step);
 2. pendulum-steps per second of RK4 on a batch of 10,000 pendulums (goal >= 1e7);
@@ -139,7 +139,7 @@ def sphere_box_costs(sizes=(100, 1000, 10_000), steps=50, repeats=3):
 
 
 # --------------------------------------------------------------------------------------------
-# The figures as data (refsim.figure_runs: one stored row each)
+# The figures as data (refsim.store.figures: one stored row each)
 # --------------------------------------------------------------------------------------------
 def single_figure(us, steps, repeats) -> dict:
     return {"figure": "rk4_one_pendulum", "value": us, "units": "us/step",

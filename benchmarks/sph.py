@@ -2,7 +2,7 @@
 taichi side by side, at about 5k, 20k and 80k fluid particles: fluid particle-steps per second
 over steps 20..(20 + n) of the collapse (after the first neighbour build and taichi's
 compilation). Times are single samples after that warm-up. `main` returns the figures as
-data (one dict per engine and size, refsim.figure_runs) for the store.
+data (one dict per engine and size, refsim.store.figures) for the store.
 """
 from __future__ import annotations
 

@@ -162,7 +162,7 @@ class Case:
         return None
 
     def stability(self, p):
-        """The case's stability parameter for `refsim stress` (a refsim.stress_spec
+        """The case's stability parameter for `refsim stress` (a refsim.stress.spec
         StabilitySpec); None (the default): the case declares none."""
         return None
 

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import functools
 import importlib
-import math
 import pkgutil
 from dataclasses import asdict, dataclass, field, is_dataclass
 from typing import Callable

@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 
 from refsim.engine import Engine
-from refsim.runner import Job, expand, run_job
+from refsim.run.job import Job, run_job
+from refsim.run.runner import expand
 
 
 def accuracy(case, variant, engine, integrator, dt, engine_variant="", **params) -> dict:
@@ -32,7 +33,7 @@ def accuracy(case, variant, engine, integrator, dt, engine_variant="", **params)
 def measured_order(case, variant, engine, integrator, dts, engine_variant="", **params):
     """(slope, points used, errors) of log err_max against log dt over `dts`."""
     from refsim.registry import get_case
-    from refsim.metrics import convergence_order
+    from refsim.run.metrics import convergence_order
 
     rows = [accuracy(case, variant, engine, integrator, dt, engine_variant, **params)
             for dt in dts]
@@ -170,7 +171,7 @@ def resolve_engine(engine) -> str:
 
 def suite(engine, cases=None) -> list[Job]:
     """Every job `engine` runs in the tolerance suite: one per case x variant x engine variant
-    x integrator, at the case's reference dt, expanded by `refsim.runner.expand` (so exactly
+    x integrator, at the case's reference dt, expanded by `refsim.run.runner.expand` (so exactly
     the rows `refsim run` would make at that dt).
 
     Rules: `engine` as for `resolve_engine`; `cases` are case names (default: every case);

@@ -2,7 +2,7 @@
 case, in the column the case's tolerance judges, and whether the bound the case gives the NAMED
 method catches it: the mechanics the case tests share (tests/cases).
 
-Two ways to run: `job_error` runs the harness's job (`refsim.job.run_job`, no timing pass; the
+Two ways to run: `job_error` runs the harness's job (`refsim.run.job.run_job`, no timing pass; the
 engine is looked up by name, so register the planted engines first: `engines.register_all`),
 `defect_error` builds a planted engine's sim directly and samples it as a job does
 (`sim_error`). `uncaught` and its two forms `job_uncaught` / `defect_uncaught` list the dts of a
@@ -47,7 +47,7 @@ def job_error(case_name, variant, engine, integrator, dt, formulation="") -> flo
     """The error of one job of `engine` (a registered name) running `integrator` at dt, in the
     column the case's tolerance judges (`Case.tolerance_column`, usually err_max); fails with
     the row's reason unless the job ran (status ok)."""
-    from refsim.job import Job, run_job
+    from refsim.run.job import Job, run_job
     from refsim.registry import get_case
     row = run_job(Job(case_name, variant, engine, formulation, integrator, dt), repeats=0)
     assert row["status"] == "ok", row["reason"]

@@ -1,9 +1,9 @@
 """Runs each planted defect where it matters and says whether the verdicts catch it.
 
-For each defect: the jobs of the default matrix (`refsim.runner.expand(engines=["refsim"])`,
+For each defect: the jobs of the default matrix (`refsim.run.runner.expand(engines=["refsim"])`,
 or its quick form) whose scene and integrator the defect can touch (`Defect.touches`), re-labelled
 to the defect's engine; the control engine (refsim behind the same wrapper, no defect) runs the
-same jobs. Both run in one pass (accuracy only, no timing pass; `refsim.executors.Local` with
+same jobs. Both run in one pass (accuracy only, no timing pass; `refsim.run.executors.Local` with
 2 processes by default), the order fits are added over the whole table (`runner.with_orders`),
 and nothing is cached between runs.
 
@@ -35,9 +35,9 @@ from functools import lru_cache
 
 import pandas as pd
 
-from refsim import executors
+from refsim.run import executors
 from refsim.registry import get_case
-from refsim.runner import expand, with_orders
+from refsim.run.runner import expand, with_orders
 
 from .engines import DEFECTS, UNREACHABLE, register_all
 

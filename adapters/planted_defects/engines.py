@@ -352,7 +352,7 @@ ENGINES = SimpleNamespace(**{d.name.replace(".", "_"): _engine_class(d)
 
 def register_all() -> list[str]:
     """Registers every planted engine as "planted_<defect>" for this process (and the
-    sandboxes of `refsim.executors.Local`, which repeat run-time registrations)."""
+    sandboxes of `refsim.run.executors.Local`, which repeat run-time registrations)."""
     for d in DEFECTS.values():
         registry.register("engine", d.engine, f"{__name__}:ENGINES.{d.name.replace('.', '_')}")
     return [d.engine for d in DEFECTS.values()]

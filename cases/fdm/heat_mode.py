@@ -159,7 +159,7 @@ class HeatMode(ModeFieldCase):
         periodic grid, whose sawtooth mode has the Laplacian's largest eigenvalue d 4/h^2
         exactly; theory: x_R / (4 d), x_R the real stability interval of the stepper's R
         (FTCS, midpoint, Heun 2; RK4 2.785), unbounded for implicit Euler and CN."""
-        from refsim.stress_spec import StabilitySpec
+        from refsim.stress.spec import StabilitySpec
         q = {**p, "initial": "noise", "boundary": "periodic"}
         dim, periods, factor = int(p["dim"]), 160, 1e4
 

@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from refsim.case import EPS, Param
-from refsim.stress_search import theory as oscillator_limit
+from refsim.stress.search import theory as oscillator_limit
 
 from ._modes import BOUNDARIES, ModeFieldCase, ModeGrid
 
@@ -164,7 +164,7 @@ class WaveMode(ModeFieldCase):
         grid (the sawtooth has omega_max = 2 c sqrt(d) / h); theory: the stepper's limit on
         a linear oscillator (omega dt <= 2 leapfrog, 2 sqrt 2 RK4, unbounded implicit) over
         2 sqrt(d)."""
-        from refsim.stress_spec import StabilitySpec
+        from refsim.stress.spec import StabilitySpec
         q = {**p, "initial": "noise", "boundary": "periodic"}
         dim, periods = int(p["dim"]), 200
 

@@ -84,7 +84,7 @@ class HydrostaticTank(SPHTankCase):
         A run is judged over P acoustic crossings of the tank (a / c0 each, so a/h / y steps)
         and is stable while |E - E(0)| < divergence_factor x M g H / 2 (the case's own
         divergence bound), the state finite."""
-        from refsim.stress_spec import StabilitySpec, integrator_family
+        from refsim.stress.spec import StabilitySpec, integrator_family
         limit = kdk_cfl_limit(p["smoothing"], p["delta"])
 
         def theory(stepper, settings):

@@ -37,8 +37,8 @@ from refsim.case import EPS, Case, Param, order_tolerance
 from refsim.models.spring_network import network_potential
 from refsim.scene import Scene
 from refsim.scene.networks import SpringNetwork
-from refsim.stress_search import Criterion, finite_time
-from refsim.stress_search import theory as oscillator_limit
+from refsim.stress.search import Criterion, finite_time
+from refsim.stress.search import theory as oscillator_limit
 
 from ._linear_steps import STEPPERS, mode_amplitude
 
@@ -270,7 +270,7 @@ class StringModes(Case):
         run is one undamped oscillator at w_max; theory: the stepper's limit on an oscillator
         (2 symplectic Euler and Verlet, 2 sqrt 2 RK4, unbounded Baraff-Witkin) over
         w_max / sqrt(k / m)."""
-        from refsim.stress_spec import StabilitySpec
+        from refsim.stress.spec import StabilitySpec
         n = int(p["nodes"])
         q = {**p, "mode": n, "mode2": n}
         factor = self.stiffest_factor(q)
@@ -296,7 +296,7 @@ class StringModes(Case):
             quick_periods=20, cycle=2 * math.pi / factor, resolution=slack / factor,
             resolution_reason=(
                 "the run is one oscillator at w_max (the stiffest mode from rest), so the "
-                "stated criterion lands where refsim.stress_search.finite_time puts it for "
+                "stated criterion lands where refsim.stress.search.finite_time puts it for "
                 "that oscillator: symplectic Euler's peak E0 / (1 - y/2) below the limit, "
                 "slow growth over the judged steps past it (largest over the explicit "
                 "steppers), in units of w_max / sqrt(k/m)"))

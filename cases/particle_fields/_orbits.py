@@ -119,7 +119,7 @@ def measured_period(t, r, w):
 
 
 def sampled_steps(t_end, sample_dt, dt) -> np.ndarray:
-    """The step counts a job observes at (stride as refsim/job.py computes it)."""
+    """The step counts a job observes at (stride as refsim/run/job.py computes it)."""
     steps = int(round(t_end / dt))
     stride = max(1, int(round(sample_dt / dt)))
     return np.unique(np.append(np.arange(0, steps + 1, stride), steps))

@@ -256,7 +256,7 @@ class LJDimer(Case):
         return roundoff_tolerance(steps, R0_OVER_SIGMA * p["sigma"] + p["amplitude"])
 
     def sampled_steps(self, p, dt) -> np.ndarray:
-        """The step counts the job observes at (stride as refsim/job.py computes it)."""
+        """The step counts the job observes at (stride as refsim/run/job.py computes it)."""
         steps = int(round(self.t_end(p) / dt))
         stride = max(1, int(round(self.sample_dt(p) / dt)))
         return np.unique(np.append(np.arange(0, steps + 1, stride), steps))

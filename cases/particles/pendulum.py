@@ -119,7 +119,7 @@ class Pendulum(Case):
         """In generalized coordinates (theta, separable H = p^2/(2 m L^2) - m g L cos theta)
         the swing's period 4 K(m) / w0; in maximal coordinates the rod's constraint brings
         its own dynamics (Baumgarte, a penalty spring): no energy behaviour claimed."""
-        from refsim.stress_spec import declared_formulations
+        from refsim.stress.spec import declared_formulations
         forms = declared_formulations(settings or {})
         if not (forms and all("generalized coordinate" in form for form in forms)):
             return None
@@ -266,7 +266,7 @@ class Pendulum(Case):
         coordinates the rod's constraint (multipliers with Baumgarte, a penalty spring,
         impulses) brings its own dynamics and no theory is stated. Every engine formulation
         is searched."""
-        from refsim.stress_spec import oscillator_spec
+        from refsim.stress.spec import oscillator_spec
         swing = 2.0 * p["mass"] * p["g"] * p["length"] * np.sin(0.5 * p["theta0"]) ** 2
         return oscillator_spec(self.omega(p), -p["mass"] * p["g"] * p["length"], swing,
                                "small-amplitude pendulum: theta'' = -omega0^2 theta in "
@@ -278,7 +278,7 @@ class Pendulum(Case):
 def pendulum_stability_theory(stepper, settings):
     """The spring's limit where every formulation the Sim declares is in generalized
     coordinates; NaN (with the reason) otherwise."""
-    from refsim.stress_spec import declared_formulations, stepper_theory
+    from refsim.stress.spec import declared_formulations, stepper_theory
     forms = declared_formulations(settings)
     if forms and all("generalized coordinate" in form for form in forms):
         limit, why = stepper_theory(stepper)

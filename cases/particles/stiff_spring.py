@@ -180,8 +180,8 @@ class StiffSpring(Case):
     def stability(self, p):
         """`refsim stress`: y = omega dt on the undamped spring from rest, the amplitude lowered
         from 0.1 m to 1e-7 m so that the mass never reaches the anchor and the spring stays
-        linear at every y searched (refsim.stress_search's docstring says why)."""
-        from refsim.stress_spec import oscillator_spec
+        linear at every y searched (refsim.stress.search's docstring says why)."""
+        from refsim.stress.spec import oscillator_spec
         return oscillator_spec(self.omega(p), 0.0, self.energy_scale(p),
                                "linear stability of the stepper on u'' = -w0^2 u (Hairer, "
                                "Lubich & Wanner 2006; Butcher 2016 for RK stability "
@@ -212,7 +212,7 @@ def damped_oscillator(w0, zeta, u0, v0, t):
 
 # -- exact discrete solutions of the named method: shared by the particle cases ---------------
 def sample_steps(steps: int, stride: int) -> np.ndarray:
-    """The step counts at which the harness observes a run (refsim.job._accuracy_pass): 0,
+    """The step counts at which the harness observes a run (refsim.run.job._accuracy_pass): 0,
     stride, 2 stride, ..., and the last step."""
     return np.unique(np.append(np.arange(0, steps, max(1, stride)), steps))
 

@@ -12,7 +12,7 @@ Observables (slot arrays of the fixed capacity c, set by the engine at build):
     "v"        (c, 3)  m/s    velocities (free slots: FREE_SLOT_VALUE)
     "birth"    (c,)    s      birth time (a step boundary) of the slot's particle, NaN if free
     "emitted"  ()      1      particles born so far (ids 0 .. emitted - 1)
-FREE_SLOT_VALUE is 0, not NaN: the harness (refsim/job.py `_divergence`) reads any non-finite
+FREE_SLOT_VALUE is 0, not NaN: the harness (refsim/run/job.py `_divergence`) reads any non-finite
 x or v as a divergence; "id" == -1 is what marks a free slot.
 """
 from __future__ import annotations

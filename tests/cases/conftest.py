@@ -8,7 +8,7 @@ import pytest
 def stress_limits(tmp_path):
     """limits(case, variant, integrators) -> the `refsim stress --case` limits table on the
     in-house engine, indexed by integrator (stored under tmp_path)."""
-    from refsim.stress import limits_table, options
+    from refsim.stress.limits import limits_table, options
 
     def limits(case, variant, integrators):
         args = SimpleNamespace(case=case, variant=variant, engine=["refsim"],

@@ -9,7 +9,7 @@ from refsim.engine import Engine
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.tableaux import RK4
 from refsim import registry
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.models.advection import vortex_radius_factor
 
 FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")

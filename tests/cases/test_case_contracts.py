@@ -9,7 +9,7 @@ import pytest
 
 from refsim.case import Case
 from refsim.registry import case_names, get_case, get_engine
-from refsim.runner import Job, run_job
+from refsim.run.job import Job, run_job
 
 ENGINE = get_engine("refsim")
 # on an undamped oscillator these are unstable at every step size (|R(iy)| > 1 for all y > 0):

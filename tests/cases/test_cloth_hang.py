@@ -13,7 +13,7 @@ from refsim_cases.networks._cloth_grid import (dihedral_quads, grid_positions, s
                                         structural_edges)
 from refsim_cases.networks.cloth_hang import CASE, cloth_network, edge_strain
 from refsim import registry
-from refsim.runner import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.scene.networks import dihedral_angles
 
 EPS = np.finfo(float).eps

@@ -7,8 +7,8 @@ from test_stiff_spring import finest_scene_defect, impostor_uncaught, named_boun
 
 from refsim_adapters.planted_defects.checks import sweep
 from refsim_cases.particles.free_fall import CASE
-from refsim.job import Job, run_job
-from refsim.runner import expand
+from refsim.run.job import Job, run_job
+from refsim.run.runner import expand
 
 
 @pytest.mark.parametrize("variant", ["default", "drag"])

@@ -7,7 +7,7 @@ from refsim_adapters.planted_defects.checks import job_uncaught
 from refsim_cases.particle_fields.gradient_descent import CASE
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.tableaux import RK4
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 
 FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")
 

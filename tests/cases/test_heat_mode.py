@@ -8,7 +8,7 @@ import pytest
 
 from refsim_cases.fdm.heat_mode import CASE
 from refsim.registry import get_engine
-from refsim.runner import Job, run_job
+from refsim.run.job import Job, run_job
 
 ENGINE = get_engine("refsim")
 SCHEMES = ["explicit_euler", "midpoint", "heun", "rk4", "implicit_euler", "crank_nicolson"]

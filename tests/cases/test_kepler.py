@@ -10,7 +10,7 @@ from refsim_cases.particle_fields._orbits import (
     two_body_state,
 )
 from refsim_cases.particle_fields.kepler import CASE, masses, period
-from refsim.metrics import convergence_order
+from refsim.run.metrics import convergence_order
 from refsim.models.nbody_gravity import angular_momentum, runge_lenz, total_energy
 from refsim_adapters.planted_defects.checks import bound_misfits, job_error, job_uncaught, sweep
 from refsim.registry import get_engine

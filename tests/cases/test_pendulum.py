@@ -9,7 +9,7 @@ from test_stiff_spring import WRONG_METHODS, finest_scene_defect, impostor_uncau
 from refsim_adapters.planted_defects.checks import sweep
 from refsim_cases.particles.pendulum import CASE, SAFETY
 from refsim.integrators import get_integrator
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 
 FIXED = ["explicit_euler", "symplectic_euler", "symplectic_euler_dk", "heun", "rk4", "dopri5",
          "velocity_verlet", "stormer_verlet", "implicit_euler"]

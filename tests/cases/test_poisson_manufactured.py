@@ -7,7 +7,7 @@ import pytest
 
 from refsim_cases.fdm.poisson_manufactured import CASE, discrete_factor, lambda_min
 from refsim import registry
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.models.grid_laplacian import GridLaplacian
 from refsim.models.poisson_solvers import METHODS, PoissonProblem, solve_problem
 from refsim.scene import Scene
@@ -64,7 +64,7 @@ def test_factor_matches_a_direct_solve(variant):
 def _checked_row(variant, method):
     row = run_job(Job(CASE.name, variant, "refsim", method, "steady", 1.0), repeats=1)
     if row["status"] == "failed" and "KeyError: 'x'" in row["reason"]:
-        pytest.skip("refsim/job.py _state_failure reads obs['x'] and obs['v'], which grid "
+        pytest.skip("refsim/run/job.py _state_failure reads obs['x'] and obs['v'], which grid "
                     "scenes do not have (the lead's fix: check every observed array)")
     return row
 

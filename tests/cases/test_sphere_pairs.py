@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from refsim_cases.contacts.sphere_pairs import CASE
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.registry import get_engine
 
 OBLIQUE = ("oblique", "oblique_friction")

@@ -3,7 +3,7 @@ falls monotonically."""
 import pytest
 
 from refsim_cases.particle_fields.sphere_sampling import CASE
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 
 
 

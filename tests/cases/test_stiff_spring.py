@@ -9,9 +9,9 @@ import pytest
 from refsim_adapters.planted_defects.checks import sweep, uncaught
 from refsim_cases.particles.stiff_spring import CASE
 from refsim.integrators import ExplicitRK, Tableau, get_integrator
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.registry import get_case
-from refsim.runner import expand
+from refsim.run.runner import expand
 
 # Kutta's third-order method (Butcher 2016, sec. 233): an "rk4" one order short
 KUTTA3 = Tableau(a=((0, 0, 0), (0.5, 0, 0), (-1, 2, 0)), b=(1 / 6, 2 / 3, 1 / 6),

@@ -12,7 +12,7 @@ from refsim_cases.networks._linear_steps import backward_euler_factor, mode_ampl
 from refsim_cases.networks.string_modes import CASE
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
-from refsim.runner import Job, run_job
+from refsim.run.job import Job, run_job
 
 ENGINE = get_engine("refsim")
 EPS = np.finfo(float).eps

@@ -8,7 +8,7 @@ import pytest
 
 from refsim_cases.fdm.wave_mode import CASE, discrete_u
 from refsim.registry import get_engine
-from refsim.runner import Job, run_job
+from refsim.run.job import Job, run_job
 
 ENGINE = get_engine("refsim")
 SCHEMES = ["stormer_verlet", "velocity_verlet", "symplectic_euler", "rk4", "implicit_euler",

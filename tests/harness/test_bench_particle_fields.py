@@ -5,7 +5,7 @@ import pytest
 
 from refsim_benchmarks import lennard_jones as lj
 from refsim_benchmarks import particle_fields as bench
-from refsim.figure_runs import check_figures
+from refsim.store.figures import check_figures
 
 
 def test_lj_rows_count_pairs_and_agree_across_engines():

@@ -8,9 +8,9 @@ import pytest
 
 from refsim_benchmarks import sleeping_top as bench
 from refsim import cli, registry
-from refsim.figure_runs import check_figures
+from refsim.store.figures import check_figures
 from refsim.registry import get_engine
-from refsim.store import load_results
+from refsim.store.results import load_results
 
 
 def test_linear_criterion_lies_between_one_and_the_stable_peak_bound():

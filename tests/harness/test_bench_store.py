@@ -7,11 +7,12 @@ import pandas as pd
 import pytest
 
 from refsim import cli, registry
-from refsim.compare import compare_runs
-from refsim.figure_runs import NO_TOLERANCE, check_figures, figure_rows, run_bench
-from refsim.report import write_report
-from refsim.store import KEY, load_definitions_list, load_results, row_key
-from refsim.stored_runs import open_run
+from refsim.report.compare import compare_runs
+from refsim.cli.bench import run_bench
+from refsim.store.figures import NO_TOLERANCE, check_figures, figure_rows
+from refsim.report.build import write_report
+from refsim.store.results import KEY, load_definitions_list, load_results, row_key
+from refsim.store.runs import open_run
 
 SPEED = {"us": 10.0, "ms": 4.0}  # what the tiny bench measures; a test slows it down
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from refsim.store import DEFAULT_ROOT, KEY, load_results, row_key
+from refsim.store.results import DEFAULT_ROOT, KEY, load_results, row_key
 
 
 def refsim(*args, cwd=None):
@@ -71,7 +71,7 @@ def _small_run(tmp_path, *extra, dts=("0.01", "0.005")):
 
 
 def test_run_writes_table_and_manifest(tmp_path):
-    # a decade of dt: the least a measured order is fitted over (refsim.metrics.fit_order)
+    # a decade of dt: the least a measured order is fitted over (refsim.run.metrics.fit_order)
     out, run_dir = _small_run(tmp_path, dts=("0.02", "0.01", "0.004", "0.002"))
     assert run_dir.parent == tmp_path and run_dir.is_dir()
     table = load_results(run_dir)

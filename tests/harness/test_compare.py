@@ -7,8 +7,12 @@ import shutil
 import numpy as np
 import pytest
 
-from refsim import compare, runner
-from refsim.store import RunStore, environment, load_results
+from refsim.cli import compare as compare_cli
+from refsim.report import compare
+from refsim.store.runs import open_run, parse_renames
+
+from refsim.run import runner
+from refsim.store.results import RunStore, environment, load_results
 
 CASES = ["free_fall", "stiff_spring"]
 
@@ -54,12 +58,12 @@ def edit_manifest(run_dir, change):
 
 def run_compare(a, b, *options):
     parser = argparse.ArgumentParser()
-    compare.add_arguments(parser)
-    return compare.main(parser.parse_args([str(a), str(b), *options]))
+    compare_cli.add_arguments(parser)
+    return compare_cli.main(parser.parse_args([str(a), str(b), *options]))
 
 
 def verdicts(a, b, **kw):
-    result = compare.compare_runs(compare.open_run("RUN_A", a), compare.open_run("RUN_B", b),
+    result = compare.compare_runs(open_run("RUN_A", a), open_run("RUN_B", b),
                                   **kw)
     return {(r.case, r.integrator): (r.verdict, r.reasons) for r in
             result.compared.itertuples()}, result
@@ -229,7 +233,7 @@ def test_rename_maps_a_reorganised_case_row_for_row(runs, capsys):
 @pytest.mark.parametrize("spec", ["old_fall", "=free_fall", "a/v=b", "a=b/v"])
 def test_rename_must_name_both_sides_alike(spec):
     with pytest.raises(ValueError, match="--rename must be OLD=NEW"):
-        compare.parse_renames([spec])
+        parse_renames([spec])
 
 
 def test_changed_source_is_refused_unless_allowed_and_then_said(runs):

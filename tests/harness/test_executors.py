@@ -1,4 +1,4 @@
-"""Where jobs run (refsim.executors): a job whose engine aborts, segfaults or hangs is one row
+"""Where jobs run (refsim.run.executors): a job whose engine aborts, segfaults or hangs is one row
 (`failed` naming the signal, `timeout`) and every other row is there, on the local executor and
 on a Dask cluster; both give the rows of the in-process run; a run killed with SIGKILL loses
 no finished row and redoes none on --resume."""
@@ -15,10 +15,12 @@ from pathlib import Path
 import pytest
 from example_engine import PointMassEngine, PointMassSim
 
-from refsim import executors, registry
-from refsim.runner import expand, run_matrix
-from refsim.sandbox import death_reason
-from refsim.store import RunStore, read_journal, row_key
+from refsim import registry
+
+from refsim.run import executors
+from refsim.run.runner import expand, run_matrix
+from refsim.run.sandbox import death_reason
+from refsim.store.results import RunStore, read_journal, row_key
 
 HANG_S = 600.0
 # long enough for a fresh sandbox child to start and import refsim on a loaded 2-core

@@ -17,7 +17,7 @@ from refsim_adapters.planted_defects.engines import (
     register_all,
 )
 from refsim.integrators import EULER, HEUN, ExplicitRK
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.registry import get_case, get_engine, unregister
 from refsim.scene.pivots import check_on_anchor
 

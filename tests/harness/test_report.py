@@ -13,10 +13,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from refsim import runner
-from refsim.report import recommendation, write_report
-from refsim.report_plots import pareto_front
-from refsim.store import RunStore, load_results, new_run_id
+from refsim.run import runner
+from refsim.report.build import recommendation, write_report
+from refsim.report.plots import pareto_front
+from refsim.store.results import RunStore, load_results, new_run_id
 
 
 @pytest.fixture(scope="module")
@@ -121,7 +121,7 @@ def test_recommendation_names_the_most_accurate_when_none_reaches_the_target(run
 
 
 def test_cli_report_bad_input_is_one_line(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "refsim.cli", "report", str(tmp_path)],
+    out = subprocess.run([sys.executable, "-m", "refsim", "report", str(tmp_path)],
                          capture_output=True, text=True)
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
     assert "RUN_DIR must be a stored run" in out.stderr
@@ -197,8 +197,8 @@ def test_results_merged_by_hand_with_empty_missing_values_still_report(run_dir, 
     two runs are merged by hand: numbers stay numbers, text stays text, the report is written
     (it crashed with a TypeError before)."""
     import pandas as pd
-    from refsim.report import write_report
-    from refsim.store import load_results
+    from refsim.report.build import write_report
+    from refsim.store.results import load_results
     merged = tmp_path / "merged"
     merged.mkdir()
     for name in ("manifest.json", "series.jsonl"):

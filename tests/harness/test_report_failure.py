@@ -12,7 +12,7 @@ def _boom(run_dir):
 
 
 def test_a_failing_report_keeps_the_run_and_exits_1(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr("refsim.report.write_report", _boom)
+    monkeypatch.setattr("refsim.report.build.write_report", _boom)
     status = cli.main(["run", "--case", "free_fall", "--variant", "default", "--engine",
                        "refsim", "--integrator", "rk4", "--dt", "0.01", "--out", str(tmp_path)])
     err = capsys.readouterr().err

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from refsim import report_style as rs
-from refsim.report_overview import cell, scoreboard
+from refsim.report import style as rs
+from refsim.report.overview import cell, scoreboard
 
 COLUMNS = ["engine", "engine_variant", "integrator", "dt", "status", "reason", "err_max",
            "step_s", "consistency"]

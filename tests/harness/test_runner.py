@@ -4,8 +4,9 @@ import pytest
 
 from refsim import registry
 from refsim.engine import Engine
-from refsim.runner import Job, expand, run_job, run_matrix
-from refsim.store import RunStore, load_results
+from refsim.run.job import Job, run_job
+from refsim.run.runner import expand, run_matrix
+from refsim.store.results import RunStore, load_results
 
 
 class BrokenEngine(Engine):
@@ -124,7 +125,7 @@ def test_max_steps_bound_is_inclusive_and_overridable():
 def test_summary_counts_rows_by_verdict():
     import io
     import pandas as pd
-    from refsim.summary import print_summary, verdict_counts
+    from refsim.run.summary import print_summary, verdict_counts
     base = {"case": "stiff_spring", "variant": "default", "engine": "refsim",
             "engine_variant": "", "dt": 0.002, "energy_drift": 0.1, "us_per_step": 1.0,
             "order": np.nan, "reason": ""}
@@ -179,7 +180,7 @@ def test_pendulum_bound_counts_an_engines_point_inertia():
 def test_alternative_formulations_run_on_the_cases_declared_variants_only():
     """The pendulum compares its maximal-coordinate formulations on the default swing; the
     large swing runs them when named or with --full."""
-    from refsim.runner import expand
+    from refsim.run.runner import expand
     plain = expand(cases=["pendulum"], engines=["refsim"])
     forms = {(j.variant, j.engine_variant) for j in plain}
     assert ("default", "kkt") in forms and ("default", "penalty") in forms
@@ -223,7 +224,7 @@ class _Stub:
 @pytest.mark.parametrize("message", ["implicit_euler: Newton did not converge in 50 "
                                      "iterations at t=0.03", "contact list full"])
 def test_solver_failure_with_a_bounded_state_is_failed_with_one_time(message):
-    from refsim.job import EngineClock, _accuracy_pass
+    from refsim.run.job import EngineClock, _accuracy_pass
     from refsim.registry import get_case
     case = get_case("free_fall")
     p = case.variant_params("default")
@@ -294,7 +295,7 @@ class _LaunchEngine:
 def test_timing_stretch_is_not_sized_by_the_observation_calls():
     """The accuracy pass's per-observation calls made it look long (N' = 10 of 1000 steps):
     one probe call shows the whole run fits the timing budget, so the whole run is timed."""
-    from refsim.job import _timing_pass
+    from refsim.run.job import _timing_pass
     job = Job("free_fall", "default", "x", "", "rk4", 1e-3)
     row = _timing_pass(_LaunchEngine(), None, job, steps=1000, timed=10, repeats=1,
                        budget_s=0.01)
@@ -333,7 +334,7 @@ def test_stored_runs_carry_their_format_and_a_newer_one_is_refused(tmp_path):
     format this refsim does not know is refused with a one-line reason."""
     import json
 
-    from refsim.store import FORMAT, RunStore, run_format
+    from refsim.store.results import FORMAT, RunStore, run_format
     st = RunStore.create(tmp_path, {"run_id": "r1"})
     assert st.manifest["format"] == FORMAT and run_format(st.dir) == FORMAT
     old = tmp_path / "old"

@@ -16,15 +16,18 @@ import numpy as np
 import pytest
 
 from refsim.registry import get_engine
-from refsim import stress, stress_store
-from refsim.compare import compare_runs
-from refsim.report import write_report
-from refsim.store import KEY, load_definitions_list, load_results
-from refsim.stored_runs import open_run
+from refsim.cli import stress as stress_cli
+from refsim.stress import limits as stress
+from refsim.stress import sweep as stress_sweep
+from refsim.stress import store as stress_store
+from refsim.report.compare import compare_runs
+from refsim.report.build import write_report
+from refsim.store.results import KEY, load_definitions_list, load_results
+from refsim.store.runs import open_run
 from refsim.integrators import get_integrator
-from refsim.stress_search import (Criterion, batch_evaluator, batch_stepper, find_limit,
+from refsim.stress.search import (Criterion, batch_evaluator, batch_stepper, find_limit,
                                   finite_time, sim_evaluator, theory)
-from refsim.stress_spec import Probe as Spring
+from refsim.stress.spec import Probe as Spring
 
 THEORY = {"symplectic_euler": 2.0, "symplectic_euler_dk": 2.0, "velocity_verlet": 2.0,
           "stormer_verlet": 2.0, "leapfrog": 2.0, "rk4": 2 * math.sqrt(2),
@@ -40,7 +43,7 @@ def spring():
 
 def parse(*argv):
     parser = argparse.ArgumentParser()
-    stress.add_arguments(parser)
+    stress_cli.add_arguments(parser)
     return parser.parse_args(list(argv))
 
 
@@ -134,14 +137,14 @@ def _dt_at(y, k):
 
 @pytest.mark.parametrize("k", [1e6, 1e8])
 def test_explicit_euler_sweep_row_reports_growth(k):
-    row = stress.sweep_row(get_engine("refsim"), "explicit_euler", k, _dt_at(1.0, k), 2.0)
+    row = stress_sweep.sweep_point(get_engine("refsim"), "explicit_euler", k, _dt_at(1.0, k), 2.0)
     assert row["y"] >= 1 and row["failure"] in ("energy_growth", "nan_inf")
 
 
 @pytest.mark.parametrize("k, y", [(1e6, 10.0), (1e7, 3.2)])
 def test_implicit_euler_sweep_row_reports_artificial_damping(k, y):
     """Backward Euler keeps 1/(1 + y^2) of the energy per step: at y = 10 nothing is left."""
-    row = stress.sweep_row(get_engine("refsim"), "implicit_euler", k, _dt_at(y, k), 2.0)
+    row = stress_sweep.sweep_point(get_engine("refsim"), "implicit_euler", k, _dt_at(y, k), 2.0)
     assert row["y"] > 3 and row["failure"] == "artificial_damping"
     assert row["energy_ratio"] < 1e-6
 
@@ -151,14 +154,14 @@ def test_mujoco_discrete_damps_and_euler_reports_its_reset():
     engine = get_engine("mujoco")
     if "discrete" not in engine.integrators:
         pytest.skip("this MuJoCo adapter offers no discrete integrator")
-    assert stress.sweep_row(engine, "discrete", 1e8, 1e-3, 2.0)["failure"] == \
+    assert stress_sweep.sweep_point(engine, "discrete", 1e8, 1e-3, 2.0)["failure"] == \
         "artificial_damping"
-    row = stress.sweep_row(engine, "symplectic_euler", 1e8, 1e-3, 2.0)
+    row = stress_sweep.sweep_point(engine, "symplectic_euler", 1e8, 1e-3, 2.0)
     assert row["failure"] == "silent_reset" and "energy >=" in row["detail"]
 
 
 def test_classify_labels_each_failure_and_prefers_nan_reset_and_engine_failure():
-    classify = stress.classify
+    classify = stress_sweep.classify
     assert classify({}, 0.5)["failure"] == "none"
     assert classify({}, 1e-3)["failure"] == "artificial_damping"
     assert classify({"energy_growth": 4}, 2e4) == {
@@ -172,9 +175,9 @@ def test_classify_labels_each_failure_and_prefers_nan_reset_and_engine_failure()
 
 
 def test_sweep_runs_symplectic_euler_first_then_the_named_integrators_offered():
-    assert stress.sweep_integrators(get_engine("refsim")) == [
+    assert stress_sweep.sweep_integrators(get_engine("refsim")) == [
         "symplectic_euler", "explicit_euler", "rk4", "implicit_euler"]
-    assert stress.sweep_integrators(get_engine("refsim"), ["rk4", "discrete"]) == ["rk4"]
+    assert stress_sweep.sweep_integrators(get_engine("refsim"), ["rk4", "discrete"]) == ["rk4"]
 
 
 # 4. command: store, output, bad input -------------------------------------------------------
@@ -186,7 +189,7 @@ def quick_run(tmp_path_factory):
                  "implicit_euler", "--quick", "--out", str(out_dir))
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        assert stress.main(args) == 0
+        assert stress_cli.main(args) == 0
     (run,) = out_dir.iterdir()
     return run, printed.getvalue()
 
@@ -199,7 +202,7 @@ def test_quick_run_writes_both_tables_and_manifest(quick_run):
     assert "git_commit" in manifest and set(manifest["engines"]) == {"refsim"}
     limits = (run / "stress_limits.csv").read_text().splitlines()
     sweep = (run / "stress_sweep.csv").read_text().splitlines()
-    assert len(limits) == 3 and len(sweep) == 1 + 2 * len(stress.SWEEP_K)
+    assert len(limits) == 3 and len(sweep) == 1 + 2 * len(stress_sweep.SWEEP_K)
     assert "energy is < 10000 E0" in out and "F = 10000 because" in out
     assert "artificial_damping:" in out and str(run) in out
 
@@ -210,7 +213,7 @@ def test_quick_run_is_an_ordinary_stored_run(quick_run):
     stored definition for every variant."""
     run, _ = quick_run
     table = load_results(run)
-    assert len(table) == 2 + 2 * len(stress.SWEEP_K) and not table.duplicated(KEY).any()
+    assert len(table) == 2 + 2 * len(stress_sweep.SWEEP_K) and not table.duplicated(KEY).any()
     limits = table[table.variant == "stability_limit"].set_index("integrator")
     se, ie = limits.loc["symplectic_euler"], limits.loc["implicit_euler"]
     assert se.err_max == abs(se.measured - 2.0) and se.err_max <= se.tolerance
@@ -257,7 +260,7 @@ def test_stored_limit_of_a_failed_search_and_sweep_labels():
     failed = {"engine": "x", "integrator": "rk4", "measured": math.nan, "theory": 2.0,
               "finite_time": 2.0, "resolution": 1e-3, "agrees": False,
               "note": "error: RuntimeError: boom"}
-    row = stress_store.limit_row(failed, opts, "probe", "r", {})
+    row = stress_store.stored_limit_row(failed, opts, "probe", "r", {})
     assert row["status"] == "failed" and row["reason"] == "RuntimeError: boom"
     assert math.isnan(row["err_max"]) and row["consistency"] == ""
     no_theory, why = stress_store.limit_tolerance(math.nan, math.nan, 1e-3)
@@ -278,12 +281,12 @@ def test_stored_limit_of_a_failed_search_and_sweep_labels():
     (("--integrator", "dopri5_adaptive"), "--integrator")])
 def test_bad_input_names_the_parameter(tmp_path, argv, name):
     with pytest.raises(ValueError, match=f"^{name} "):
-        stress.main(parse(*argv, "--out", str(tmp_path)))
+        stress_cli.main(parse(*argv, "--out", str(tmp_path)))
     assert not any(tmp_path.iterdir())
 
 
 def test_no_engine_package_or_matplotlib_at_import():
-    code = ("import sys, refsim.stress; print(sorted(m for m in ('mujoco', 'pybullet', "
+    code = ("import sys, refsim.stress.limits; print(sorted(m for m in ('mujoco', 'pybullet', "
             "'pymunk', 'taichi', 'matplotlib') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)

@@ -8,17 +8,18 @@ import math
 import numpy as np
 import pytest
 
-from refsim import stress
+from refsim.cli import stress as stress_cli
+from refsim.stress import limits as stress
 from refsim.registry import get_case, get_engine
-from refsim.store import load_definitions_list, load_results
-from refsim.stress_search import Criterion, find_limit, finite_time, theory
-from refsim.stress_spec import Probe, declared_formulations
+from refsim.store.results import load_definitions_list, load_results
+from refsim.stress.search import Criterion, find_limit, finite_time, theory
+from refsim.stress.spec import Probe, declared_formulations
 from refsim.integrators import get_integrator
 
 
 def parse(*argv):
     parser = argparse.ArgumentParser()
-    stress.add_arguments(parser)
+    stress_cli.add_arguments(parser)
     return parser.parse_args(list(argv))
 
 
@@ -102,7 +103,7 @@ def test_tank_measured_limit_agrees_with_theory(tmp_path):
     resolution of the von Neumann limit, stored with measured and theory columns."""
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        assert stress.main(parse("--case", "hydrostatic_tank", "--engine", "refsim",
+        assert stress_cli.main(parse("--case", "hydrostatic_tank", "--engine", "refsim",
                                  "--quick", "--out", str(tmp_path))) == 0
     (run,) = tmp_path.iterdir()
     (row,) = load_results(run).to_dict("records")
@@ -116,7 +117,7 @@ def test_tank_measured_limit_agrees_with_theory(tmp_path):
 
 def test_case_without_stability_declaration_is_refused(tmp_path):
     with pytest.raises(ValueError, match="^--case 'free_fall' declares no stability"):
-        stress.main(parse("--case", "free_fall", "--out", str(tmp_path)))
+        stress_cli.main(parse("--case", "free_fall", "--out", str(tmp_path)))
     with pytest.raises(ValueError, match="^--case must be one of"):
-        stress.main(parse("--case", "nope", "--out", str(tmp_path)))
+        stress_cli.main(parse("--case", "nope", "--out", str(tmp_path)))
     assert not any(tmp_path.iterdir())

@@ -108,7 +108,7 @@ def test_pendulum_rk4_order_from_the_case_sweep(variant, expected):
     import pandas as pd
 
     from refsim.registry import get_case
-    from refsim.runner import with_orders
+    from refsim.run.runner import with_orders
     from refsim.testing import accuracy
 
     case = get_case("pendulum")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from refsim.integrators import get_integrator
-from refsim.metrics import bisect_limit, oscillator_stable
+from refsim.run.metrics import bisect_limit, step_map_stable
 from refsim.models.system import LinearSystem
 
 LIMITS = {  # largest stable y from theory
@@ -17,7 +17,7 @@ LIMITS = {  # largest stable y from theory
 @pytest.mark.parametrize("name", LIMITS)
 def test_bisected_stability_limit_matches_theory(name):
     stepper = get_integrator(name)
-    limit = bisect_limit(lambda y: oscillator_stable(stepper, y), 0.05, 4.0, tol=1e-9)
+    limit = bisect_limit(lambda y: step_map_stable(stepper, y), 0.05, 4.0, tol=1e-9)
     digits = 5e-6 if name == "dopri5" else 1e-8  # the quoted value's last digit
     assert limit == pytest.approx(LIMITS[name], abs=digits)
 
@@ -25,13 +25,13 @@ def test_bisected_stability_limit_matches_theory(name):
 @pytest.mark.parametrize("name", ["implicit_euler", "baraff_witkin"])
 def test_implicit_steppers_are_stable_at_every_step_size(name):
     stepper = get_integrator(name)
-    assert all(oscillator_stable(stepper, y) for y in (0.1, 1.0, 10.0, 1e3))
+    assert all(step_map_stable(stepper, y) for y in (0.1, 1.0, 10.0, 1e3))
 
 
 @pytest.mark.parametrize("name", ["explicit_euler", "midpoint", "heun", "rk2"])
 def test_euler_and_two_stage_rk_are_unstable_at_every_step_size(name):
     stepper = get_integrator(name)
-    assert not any(oscillator_stable(stepper, y, slack=0.0) for y in (1e-2, 0.1, 1.0))
+    assert not any(step_map_stable(stepper, y, slack=0.0) for y in (1e-2, 0.1, 1.0))
 
 
 def _energy_ratio(name, y, x=0.7, v=-0.4):

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from refsim.metrics import (AT_FLOOR, PRE_ASYMPTOTIC, SHORT_SWEEP, fit_order)
-from refsim.runner import ADAPTIVE_NOTE, SINGLE_DT_NOTE, expand, with_orders
+from refsim.run.metrics import (AT_FLOOR, PRE_ASYMPTOTIC, SHORT_SWEEP, fit_order)
+from refsim.run.runner import ADAPTIVE_NOTE, SINGLE_DT_NOTE, expand, with_orders
 
 DTS = 1e-3 * 2.0 ** np.arange(6)  # 1..32 ms: 1.5 decades
 
@@ -108,7 +108,7 @@ def test_order_dts_run_untimed_and_only_in_the_default_formulation():
 
 
 def test_an_untimed_job_has_no_timing_pass():
-    from refsim.job import Job, run_job
+    from refsim.run.job import Job, run_job
     job = Job("pendulum", "default", "refsim", "generalized", "rk4", 5e-2, timed=False)
     row = run_job(job, repeats=3)
     assert row["status"] == "ok" and row["repeats"] == 0 and np.isnan(row["step_s"])

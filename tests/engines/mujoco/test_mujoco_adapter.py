@@ -18,9 +18,9 @@ from refsim.registry import get_engine
 from refsim_adapters.mujoco_engine.methods import METHODS
 from refsim_adapters.mujoco_engine.point_masses import POINT_INERTIA
 from refsim.registry import get_case
-from refsim.metrics import bisect_limit, convergence_order
+from refsim.run.metrics import bisect_limit, convergence_order
 from refsim.integrators import method_info
-from refsim.runner import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring
 
 ENGINE = get_engine("mujoco")

@@ -15,8 +15,8 @@ import pytest
 
 from refsim.registry import get_engine
 from refsim.registry import get_case
-from refsim.metrics import bisect_limit
-from refsim.runner import Job, run_job
+from refsim.run.metrics import bisect_limit
+from refsim.run.job import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring
 from refsim.testing import accuracy, assert_consistent, measured_order
 

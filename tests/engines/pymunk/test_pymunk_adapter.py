@@ -15,8 +15,8 @@ from refsim.testing import oscillator_stable
 
 from refsim.registry import get_engine
 from refsim.registry import get_case
-from refsim.metrics import bisect_limit, convergence_order
-from refsim.runner import Job, run_job
+from refsim.run.metrics import bisect_limit, convergence_order
+from refsim.run.job import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring
 
 DK = "symplectic_euler_dk"

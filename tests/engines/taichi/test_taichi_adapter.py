@@ -20,8 +20,8 @@ from refsim.testing import oscillator_stable
 from refsim.registry import get_engine
 from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
-from refsim.metrics import bisect_limit, convergence_order
-from refsim.runner import Job, run_job
+from refsim.run.metrics import bisect_limit, convergence_order
+from refsim.run.job import Job, run_job
 from refsim.scene import Body, Joint, Scene, Spring
 
 SE, VV, RK4 = "symplectic_euler", "velocity_verlet", "rk4"

@@ -23,7 +23,7 @@ import pytest
 
 from refsim_cases.networks import cloth_hang, hair_cantilever
 from refsim import registry
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.models.spring_network import NetworkSystem
 from refsim.scene import Scene, SpringNetwork
 

@@ -19,8 +19,8 @@ from refsim_adapters.taichi_engine.groups.rigid import rotation_matrices
 from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim_cases.rigid.dzhanibekov import CASE as DZHANIBEKOV
 from refsim_cases.rigid.dzhanibekov import invariants, period_sensitivity
-from refsim.job import Job, run_job
-from refsim.metrics import convergence_order
+from refsim.run.job import Job, run_job
+from refsim.run.metrics import convergence_order
 from refsim.observation import check_observation
 from refsim.registry import get_engine
 from refsim.scene import Body, RigidBodies, Scene

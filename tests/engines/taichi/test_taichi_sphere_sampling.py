@@ -7,7 +7,7 @@ import pytest
 from refsim_adapters.common.first_order import SAMPLING_INTEGRATORS
 from refsim_cases.particle_fields.sphere_sampling import CASE
 from refsim.integrators.first_order import get_first_order
-from refsim.job import Job, run_job
+from refsim.run.job import Job, run_job
 from refsim.registry import get_engine
 
 pytest.importorskip("taichi")

@@ -1,10 +1,10 @@
 """Where the jobs of a run execute. Each executor's `results(tasks, size)` yields (job, row)
-as jobs finish; `refsim.runner.run_matrix` stores each row as it arrives.
+as jobs finish; `refsim.run.runner.run_matrix` stores each row as it arrives.
 
 - `InProcess`: one after the other in this process (the library default for one worker; no
   isolation: what tests and notebooks call).
 - `Local(workers, timeout)`: `workers` child processes on this machine, each one job at a time
-  in a `refsim.sandbox.Sandbox`: a job whose engine kills its process is a `failed` row naming
+  in a `refsim.run.sandbox.Sandbox`: a job whose engine kills its process is a `failed` row naming
   the signal, one past `timeout` seconds a `timeout` row, and a fresh process takes the next.
 - `Dask(scheduler | workers, timeout)`: the jobs on a Dask cluster, an existing one at
   `scheduler` or a local one of `workers` single-thread workers in this process; every Dask
@@ -22,7 +22,7 @@ import time
 from collections import deque
 from multiprocessing.connection import wait
 
-from refsim.sandbox import (Sandbox, child_env, close_dask_boxes, dask_task, lost_row,
+from refsim.run.sandbox import (Sandbox, child_env, close_dask_boxes, dask_task, lost_row,
                             run_task, runtime_registrations)
 
 

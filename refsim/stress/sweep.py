@@ -1,5 +1,5 @@
 """The stiffness sweep and failure taxonomy of `refsim stress` on the probe case (the
-undamped spring): sections 2 and 3 of refsim.stress's docstring."""
+undamped spring): sections 2 and 3 of refsim.stress.limits's docstring."""
 from __future__ import annotations
 
 import math
@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 
 from refsim.integrators.spec import spec_name
-from refsim.stress_search import ENERGY_FACTOR
-from refsim.stress_spec import Probe as Spring
+from refsim.stress.search import ENERGY_FACTOR
+from refsim.stress.spec import Probe as Spring
 
 SWEEP_K = tuple(10.0 ** np.arange(1, 9))
 SWEEP_DT, SWEEP_PERIODS, SWEEP_SPAN, QUICK_SPAN = 1e-3, 20, 2.0, 0.5
@@ -50,7 +50,7 @@ def sweep_table(opts, ks=SWEEP_K) -> pd.DataFrame:
     for name in opts["engines"]:
         engine = get_engine(name)
         for integ in sweep_integrators(engine, opts["integrators"]):
-            rows += [sweep_row(engine, integ, k, opts["dt"], opts["span"]) for k in ks]
+            rows += [sweep_point(engine, integ, k, opts["dt"], opts["span"]) for k in ks]
     table = pd.DataFrame([r for r in rows if r is not None])
     return table.astype({"at_step": "Int64"}) if len(table) else table
 
@@ -60,7 +60,7 @@ def sweep_steps(spring, dt, span) -> int:
     return max(1, math.ceil(min(SWEEP_PERIODS * 2 * math.pi / spring.omega, span) / dt))
 
 
-def sweep_row(engine, integrator, k, dt, span) -> dict | None:
+def sweep_point(engine, integrator, k, dt, span) -> dict | None:
     spring = Spring(stiffness=float(k))
     if engine.supports(spring.scene, integrator) is not None:
         return None

@@ -2,11 +2,11 @@
 
 Reads the store only (results.csv, manifest.json, series.jsonl and the cases as run,
 cases.json: description, units, energy scale, target error, error floor, figures); nothing is
-re-run. First the overview (refsim.report_overview: the scoreboard of case/variant x engine and
+re-run. First the overview (refsim.report.overview: the scoreboard of case/variant x engine and
 its heatmap), then per case and variant: the recommendation (the cheapest configuration
 reaching the target error), a compact table, measured against nominal orders where the case
-declares an order meaningful, and the figures (refsim.report_plots, small multiples styled by
-refsim.report_style): work-precision (error against run time, Pareto fronts), convergence
+declares an order meaningful, and the figures (refsim.report.plots, small multiples styled by
+refsim.report.style): work-precision (error against run time, Pareto fronts), convergence
 (error against dt, fitted orders where meaningful), energy against time at the reference dt,
 and the figures the case declares (e.g. the dam break's surge front over the experiment).
 """
@@ -19,39 +19,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from refsim import report_plots as plots
-from refsim.definitions import Definitions
-from refsim.report_overview import overview_blocks, truthy
-from refsim.report_render import render_html, render_markdown
-from refsim.report_style import Style
+from refsim.report import plots
+from refsim.store.definitions import Definitions
+from refsim.report.overview import overview_blocks, truthy
+from refsim.report.render import render_html, render_markdown
+from refsim.report.style import Style
 
 from refsim.verdicts import ORDER_SLACK  # |measured - nominal| within it: "matches"
-
-
-def add_arguments(parser) -> None:
-    parser.add_argument("run_dir", metavar="RUN_DIR", help="a stored run (or its id under "
-                        "reports/runs)")
-    parser.add_argument("--target-error", default=None, help="accuracy goal for the "
-                        "recommendation, in each case's error units (default: per case)")
-    parser.add_argument("--out", default=None, help="directory for the report (default RUN_DIR)")
-
-
-def main(args) -> int:
-    from refsim.stored_runs import open_run
-    run_dir = open_run("RUN_DIR", args.run_dir).dir
-    from refsim.options import number
-    target = None if args.target_error is None else number("--target-error", args.target_error)
-    md, page = write_report(run_dir, target, Path(args.out) if args.out else None)
-    print(md)
-    print(page)
-    return 0
 
 
 # ---------------------------------------------------------------------------------------------
 # Content: a list of blocks, rendered twice (Markdown, HTML)
 # ---------------------------------------------------------------------------------------------
 def write_report(run_dir, target_error=None, out=None):
-    from refsim.store import load_results, load_series
+    from refsim.store.results import load_results, load_series
     run_dir = Path(run_dir)
     out = Path(out or run_dir)
     table = load_results(run_dir)
@@ -128,7 +109,7 @@ def _fmt(value, spec=".3g") -> str:
 def _header(manifest, table):
     counts = table["status"].value_counts().to_dict()
     engines = ", ".join(f"{k} {v}" for k, v in manifest.get("engines", {}).items())
-    from refsim.summary import verdict_counts
+    from refsim.run.summary import verdict_counts
     verdicts = verdict_counts(table)
     counts["ok"] = f"{counts.get('ok', 0)} (" + ", ".join(
         f"{k} {v}" for k, v in verdicts.items()) + ")"
@@ -159,7 +140,7 @@ def _header(manifest, table):
 
 def _case_section(d, rows, series, target_error, out, style=None):
     """One case x variant from its stored definition `d` (Case.definition)."""
-    from refsim.store import row_key
+    from refsim.store.results import row_key
     col, observable, units = d["tolerance_column"], d["observable"], d["units"]
     target = target_error if target_error is not None else d["target_error"]
     title = f"{d['case']} / {d['variant']}"
@@ -250,7 +231,7 @@ def _row_status(r) -> str:
     if r["status"] != "ok":
         return f"{r['status']}: {r['reason']}"
     if not str(r.get("consistency", "")) and np.isnan(float(r.get("tolerance", np.nan))):
-        return "ok (no tolerance)"  # a figure nothing bounds (refsim.figure_runs)
+        return "ok (no tolerance)"  # a figure nothing bounds (refsim.store.figures)
     verdict = str(r.get("consistency", "")) or "no verdict"
     if verdict == "inconsistent":
         verdict = f"INCONSISTENT ! ({r.get('consistency_reason', '')})"

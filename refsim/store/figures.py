@@ -24,13 +24,10 @@ import hashlib
 import inspect
 import json
 import math
-import os
-import sys
-import time
 
 import pandas as pd
 
-from refsim import store
+from refsim.store import results as store
 
 NAN = math.nan
 NUMBER_COLUMNS = ("err_max", "err_final", "err_rms", "energy_drift", "setup_s", "compile_s",
@@ -133,52 +130,3 @@ def figure_definitions(figures: list[dict], case: str, digest: str) -> list[dict
     return list(out.values())
 
 
-def bench_manifest(name: str, quick: bool, case: str, digest: str, engines: list) -> dict:
-    from refsim.registry import get_engine
-    versions = {}
-    for engine in engines:
-        try:
-            versions[engine] = get_engine(engine).version()
-        except ValueError:  # not a registered engine (e.g. scipy measured beside them)
-            versions[engine] = _package_version(engine)
-    threads = os.environ.get("OMP_NUM_THREADS", "1")
-    env = store.environment(versions, {case: digest}, int(threads) if threads.isdigit() else 1)
-    return {"run_id": store.new_run_id(), "kind": "bench", "bench": name,
-            "command": "refsim bench " + name + (" --quick" if quick else ""),
-            "argv": sys.argv, "options": {"quick": quick}, "status": "running", **env}
-
-
-def _package_version(name: str) -> str:
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version(name)
-    except PackageNotFoundError:
-        return "unknown"
-
-
-def store_bench(name: str, main, figures: list[dict], quick: bool, out, wall_s: float):
-    """The stored run of one bench's figures under `out`; returns the RunStore."""
-    case, digest = BENCH_PREFIX + name, source_hash(main)
-    engines = list(dict.fromkeys(f["engine"] for f in figures if f.get("engine")))
-    st = store.RunStore.create(out, bench_manifest(name, quick, case, digest, engines))
-    versions = st.manifest["engines"]
-    store_rows(st, figure_rows(figures, case, st.manifest["run_id"], versions),
-               figure_definitions(figures, case, digest))
-    st.update_manifest(status="complete", wall_s=round(wall_s, 2))
-    return st
-
-
-def run_bench(name: str, quick: bool, out=None) -> int:
-    """`refsim bench NAME`: run the bench (it prints its figures), store them as a run under
-    `out` (default reports/runs) and print the run directory. A bench whose main returns an
-    exit code (the contract before figures were stored) stores nothing."""
-    from refsim.registry import entry
-    main = entry("bench", name).load()
-    t0 = time.perf_counter()
-    figures = main(quick=quick)
-    if isinstance(figures, int):
-        return figures
-    st = store_bench(name, main, check_figures(figures, name), quick, out or store.DEFAULT_ROOT,
-                     time.perf_counter() - t0)
-    print(st.dir)
-    return 0

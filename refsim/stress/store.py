@@ -1,4 +1,4 @@
-"""`refsim stress` as an ordinary stored run (refsim.figure_runs): results rows and case
+"""`refsim stress` as an ordinary stored run (refsim.store.figures): results rows and case
 definitions beside stress_limits.csv and stress_sweep.csv, so `report` and `compare` read it.
 
 Rows (case: the probe case's name, engine_variant "", KEY unique):
@@ -26,9 +26,9 @@ import math
 
 import pandas as pd
 
-from refsim.figure_runs import base_row, definition, store_rows
-from refsim.stress_report import _power
-from refsim.stress_search import Y_MAX
+from refsim.store.figures import base_row, definition, store_rows
+from refsim.stress.report import _power
+from refsim.stress.search import Y_MAX
 
 LIMIT_VARIANT = "stability_limit"
 UNITS = "y = omega dt"  # the probe case's; another case's spec names its own
@@ -86,7 +86,7 @@ def limit_tolerance(th: float, res: float, tol: float) -> tuple[float, str]:
         f"from the method's exact step map) + bisection tolerance {tol:g} x max(1, theory)")
 
 
-def limit_row(limit: dict, opts, case: str, run_id: str, versions: dict) -> dict:
+def stored_limit_row(limit: dict, opts, case: str, run_id: str, versions: dict) -> dict:
     measured, th = float(limit.get("measured", math.nan)), float(limit["theory"])
     tolerance, why = limit_tolerance(th, float(limit["resolution"]), opts["tol"])
     row = base_row(run_id, case, LIMIT_VARIANT, limit["engine"], limit["integrator"],
@@ -118,7 +118,7 @@ def sweep_status(failure: str, detail: str, at_step) -> tuple[str, str]:
     return "diverged", f"{failure}{where}" + (f": {detail}" if detail else "")
 
 
-def sweep_row(run: dict, opts, case: str, run_id: str, versions: dict) -> dict:
+def stored_sweep_row(run: dict, opts, case: str, run_id: str, versions: dict) -> dict:
     k, dt = float(run["k"]), float(run["dt"])
     row = base_row(run_id, case, sweep_variant(k), run["engine"], run["integrator"], dt,
                    params=sweep_params(opts, k))
@@ -153,7 +153,7 @@ def limit_definition(opts, spring) -> dict:
 
 
 def sweep_definition(opts, spring, k: float) -> dict:
-    from refsim import stress_sweep as stress  # the sweep's constants
+    from refsim.stress import sweep as stress  # the sweep's constants
     return definition(
         spring.case.name, sweep_variant(k),
         f"stiffness sweep at k = {k:g} N/m (m = {spring.p['mass']:g} kg, y = sqrt(k) dt), "
@@ -169,8 +169,8 @@ def sweep_definition(opts, spring, k: float) -> dict:
 def store_run(st, opts, spring, limits: pd.DataFrame, sweep: pd.DataFrame) -> None:
     """The limits and the sweep as results rows with their definitions in run `st`."""
     run_id, versions, case = st.manifest["run_id"], st.manifest["engines"], spring.case.name
-    rows = [limit_row(r, opts, case, run_id, versions) for r in limits.to_dict("records")]
-    rows += [sweep_row(r, opts, case, run_id, versions) for r in sweep.to_dict("records")]
+    rows = [stored_limit_row(r, opts, case, run_id, versions) for r in limits.to_dict("records")]
+    rows += [stored_sweep_row(r, opts, case, run_id, versions) for r in sweep.to_dict("records")]
     definitions = [limit_definition(opts, spring)] if len(limits) else []
     ks = list(dict.fromkeys(sweep["k"])) if len(sweep) else []
     definitions += [sweep_definition(opts, spring, k) for k in ks]

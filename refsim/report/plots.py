@@ -2,7 +2,7 @@
 
 Each function takes the rows of one case variant and writes one PNG, returning its path, or
 None when there is nothing to draw (no `ok` row, no stored series). Every figure is small
-multiples (refsim.report_style.panels: at most MAX_SERIES series per axes), colours by engine
+multiples (refsim.report.style.panels: at most MAX_SERIES series per axes), colours by engine
 and markers by integrator from one `Style` shared by the whole report; errors at or below the
 case's error floor (0 included) are drawn on the labelled "exact to round-off" band.
 """
@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from refsim import report_style as rs
-from refsim.report_limits import stability_limits
+from refsim.report import style as rs
+from refsim.report.limits import stability_limits
 
 
 def line_label(row) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 
 from refsim.engine import IntegratorInfo, jsonable
 from refsim.integrators import method_info
-from refsim.metrics import energy_drift, error_norms
+from refsim.run.metrics import energy_drift, error_norms
 from refsim.options import check_steps
 from refsim.registry import get_case, get_engine
 from refsim.verdicts import (INCONSISTENT, NO_REFERENCE, UNRESOLVED, declared_reason,

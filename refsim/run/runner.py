@@ -7,7 +7,6 @@ observed; min and median kept). A failure is a row with a status, never a crash 
 from __future__ import annotations
 
 import json
-import math
 import time
 from dataclasses import asdict
 
@@ -19,10 +18,9 @@ from refsim.registry import case_names, get_case
 from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
 from refsim.integrators.spec import IntegratorSpec, spec_name
 from refsim.options import MAX_STEPS, check_dt, check_steps
-from refsim.job import (BUDGET_S, LONG_RUN_S, STATUSES, Job, run_job,  # noqa: F401
-                        series)
+from refsim.run.job import BUDGET_S, Job
 from refsim.case import adaptive_rtol
-from refsim.metrics import OrderFit, fit_order
+from refsim.run.metrics import OrderFit, fit_order
 from refsim.verdicts import CONSISTENT, INCONSISTENT, order_reason
 
 # ---------------------------------------------------------------------------------------------
@@ -122,13 +120,13 @@ def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep, u
 # ---------------------------------------------------------------------------------------------
 def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None,
                workers=1, executor=None) -> pd.DataFrame:
-    """Runs every job not yet in `store` on `executor` (refsim.executors: by default in this
+    """Runs every job not yet in `store` on `executor` (refsim.run.executors: by default in this
     process for one worker, else `Local(workers)`: separate processes, each on one
     BLAS/taichi thread), storing each row as it arrives; rows keep the jobs' order.
     Leaves on the store `harness_s` (time outside engine calls, in the jobs and in this
     process between them) and `busy_s` (all the time spent on the jobs, summed over
     workers): the harness overhead is their ratio."""
-    from refsim.store import row_key
+    from refsim.store.results import row_key
     run_id = store.dir.name
     done = store.done_keys()
     todo = [j for j in jobs if row_key(asdict(j)) not in done]
@@ -159,12 +157,12 @@ def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None,
 
 
 def _executor(workers):
-    from refsim import executors
+    from refsim.run import executors
     return executors.InProcess() if workers <= 1 else executors.Local(workers)
 
 
 def _results(todo, run_id, repeats, budget_s, executor):
-    """(job, row) pairs as the executor finishes them (see refsim.executors)."""
+    """(job, row) pairs as the executor finishes them (see refsim.run.executors)."""
     tasks = [(j, run_id, repeats, budget_s) for j in todo]
     if tasks:
         yield from executor.results(tasks, size=_job_size)

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from refsim import store
+from refsim.store import results as store
 from refsim.integrators import get_integrator
-from refsim.stress_search import Criterion, finite_time, theory
+from refsim.stress.search import Criterion, finite_time, theory
 
 # --------------------------------------------------------------------------------------------
 # Output
@@ -30,7 +30,7 @@ def f_reason(crit: Criterion) -> str:
 
 
 def print_report(opts, spring, limits, sweep) -> None:
-    from refsim import stress_sweep as stress  # the sweep's constants
+    from refsim.stress import sweep as stress  # the sweep's constants
     crit = opts["criterion"]
     if not opts.get("sweep", True):
         print_case_report(opts, spring, limits)

@@ -1,54 +1,17 @@
-"""`refsim list | run | report | stress | compare | bench`: the command line.
-
-Bad input (an unknown name, dt <= 0, a non-finite or out-of-range parameter) prints one line
-naming the parameter and the valid values, and exits with code 2.
-"""
+"""`refsim run`: the case x engine x integrator x dt matrix, stored as it runs, then its report."""
 from __future__ import annotations
 
 import os
+import shlex
 import sys
 
+from refsim.cli import THREADS
+from refsim.options import integer
 
-def _pin_threads(argv) -> int:
-    """BLAS/OpenMP threads must be set before numpy loads: read --threads early (default 1)."""
-    threads = "1"
-    for k, arg in enumerate(argv):
-        if arg == "--threads" and k + 1 < len(argv):
-            threads = argv[k + 1]
-        elif arg.startswith("--threads="):
-            threads = arg.split("=", 1)[1]
-    if not threads.isdigit() or int(threads) < 1:
-        threads = "1"
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, threads)
-    return int(threads)
+HELP = "run the case x engine x integrator x dt matrix"
 
 
-THREADS = _pin_threads(sys.argv)
-
-import argparse  # noqa: E402
-import importlib  # noqa: E402
-import shlex  # noqa: E402
-
-from refsim.options import integer  # noqa: E402
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        _fail(message)
-
-
-def _fail(message: str, code: int = 2):
-    print(f"refsim: error: {message}", file=sys.stderr)
-    raise SystemExit(code)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="refsim", description="Reference validation and benchmarking of "
-                     "physics engines against exact, converged or experimental references.")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
-    sub.add_parser("list", help="cases, engines (availability, version) and integrators")
-    run = sub.add_parser("run", help="run the case x engine x integrator x dt matrix")
+def add_arguments(run) -> None:
     run.add_argument("--case", action="append", help="case name (repeatable)")
     run.add_argument("--variant", action="append", help="case variant name (repeatable)")
     run.add_argument("--engine", action="append", help="engine name (repeatable)")
@@ -76,77 +39,10 @@ def build_parser() -> argparse.ArgumentParser:
                      "cluster of N worker processes, one thread each")
     run.add_argument("--timeout", default=None, help="seconds one job may take; past it the "
                      "job is a `timeout` row and its worker is replaced (default: no limit)")
-    bench = sub.add_parser("bench", help="speed benchmarks (registered under refsim.benches; "
-                           "default: inhouse, the in-house engine on one core)")
-    bench.add_argument("name", nargs="?", default="inhouse", help="bench name (refsim list)")
-    bench.add_argument("--quick", action="store_true", help="smaller batch, fewer repeats")
-    bench.add_argument("--sph", action="store_true", help="the same as `refsim bench sph` "
-                       "(kept for earlier command lines)")
-    bench.add_argument("--out", default=None, help="runs directory for the stored figures "
-                       "(default reports/runs)")
-    for name, text in SUBCOMMANDS.items():
-        module = importlib.import_module(f"refsim.{name}")
-        module.add_arguments(sub.add_parser(name, help=text))
-    return parser
 
 
-# commands whose module offers add_arguments(parser) and main(args) -> exit code
-SUBCOMMANDS = {
-    "report": "report.md and a self-contained report.html from a stored run",
-    "stress": "stability limits (bisection on omega dt) and a stiffness sweep on every engine",
-    "compare": "row-by-row error and time ratios of two stored runs; exit 1 on a regression",
-}
-
-
-def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        if args.command == "list":
-            return cmd_list()
-        if args.command == "run":
-            return cmd_run(args, argv)
-        if args.command == "bench":
-            from refsim.figure_runs import run_bench
-            return run_bench("sph" if args.sph else args.name, args.quick, args.out)
-        if args.command in SUBCOMMANDS:
-            return importlib.import_module(f"refsim.{args.command}").main(args)
-    except ValueError as exc:
-        _fail(str(exc).splitlines()[0])
-    except KeyboardInterrupt:
-        print("\nrefsim: interrupted; finished rows are saved (resume with --resume RUN_ID)",
-              file=sys.stderr)
-        return 130
-    build_parser().print_help()
-    return 2
-
-
-def cmd_list() -> int:
-    from refsim.registry import entries, get_case, get_engine
-    from refsim.integrators import INTEGRATORS, PARAMETRISED, get_integrator
-
-    print("cases:")
-    for name, found in entries("case").items():
-        case = get_case(name)
-        print(f"  {name:18s} {case.description}")
-        print(f"  {'':18s} variants: {', '.join(case.variants)}")
-        print(f"  {'':18s} from: {found.origin} ({found.target})")
-    print("engines:")
-    for name, found in entries("engine").items():
-        eng = get_engine(name)
-        state = f"available {eng.version()}" if eng.available() else "unavailable"
-        print(f"  {name:18s} {state:22s} integrators: {', '.join(eng.integrators)}")
-        print(f"  {'':18s} from: {found.origin} ({found.target})")
-    print("benches:")
-    for name, found in entries("bench").items():
-        print(f"  {name:18s} from: {found.origin} ({found.target})")
-    print("integrators:")
-    for name in INTEGRATORS:
-        d = get_integrator(name).describe()
-        kind = "explicit" if d["explicit"] else "implicit"
-        extra = f"  [{PARAMETRISED[name]}]" if name in PARAMETRISED else ""
-        print(f"  {name:20s} order {d['order']}  {kind:8s} {d['family']}"
-              f"{' (symplectic)' if d['symplectic'] else ''}{extra}")
-    return 0
+def main(args) -> int:
+    return cmd_run(args, args.argv)
 
 
 def _params(specs, cases):
@@ -171,8 +67,9 @@ def cmd_run(args, argv) -> int:
     from pathlib import Path
 
     from refsim.registry import case_names
-    from refsim import runner, store
-    from refsim.summary import print_summary, progress_printer
+    from refsim.run import runner
+    from refsim.store import results as store
+    from refsim.run.summary import print_summary, progress_printer
 
     import time
     start = time.perf_counter()
@@ -194,7 +91,7 @@ def cmd_run(args, argv) -> int:
     jobs = runner.expand(**spec)
     if not args.resume:
         st = store.RunStore.create(root, _manifest(spec, argv, jobs))
-    from refsim.definitions import for_jobs
+    from refsim.store.definitions import for_jobs
     st.add_definitions(for_jobs(jobs))
     table = runner.run_matrix(jobs, st, repeats=repeats, progress=progress_printer(),
                               executor=executor)
@@ -218,7 +115,7 @@ def _report_after_run(run_dir) -> int:
     (matplotlib, a figure) is not bad input: the stored run is complete and kept, and the
     message says so instead of exit 2's "refsim: error"."""
     import time
-    from refsim.report import write_report
+    from refsim.report.build import write_report
     t0 = time.perf_counter()
     try:
         md, _ = write_report(run_dir)
@@ -232,9 +129,9 @@ def _report_after_run(run_dir) -> int:
 
 
 def _executor(args):
-    """Where the jobs run (refsim.executors): the local worker processes of --jobs, each job
+    """Where the jobs run (refsim.run.executors): the local worker processes of --jobs, each job
     isolated in its process, or a Dask cluster (--scheduler ADDRESS | --dask-workers N)."""
-    from refsim import executors
+    from refsim.run import executors
     from refsim.options import number
     timeout = None if args.timeout is None else number("--timeout", args.timeout, unit="s")
     if args.scheduler and args.dask_workers:
@@ -250,7 +147,7 @@ def _executor(args):
 def _manifest(spec, argv, jobs) -> dict:
     from refsim.registry import get_engine
     from refsim.registry import get_case
-    from refsim import store
+    from refsim.store import results as store
 
     engines = sorted({j.engine for j in jobs})
     versions = {e: (get_engine(e).version() if get_engine(e).available() else "unavailable")
@@ -260,7 +157,3 @@ def _manifest(spec, argv, jobs) -> dict:
     return {"run_id": store.new_run_id(), "command": command, "matrix": spec,
             "jobs": len(jobs), "status": "running",
             **store.environment(versions, hashes, THREADS)}
-
-
-if __name__ == "__main__":
-    sys.exit(main())

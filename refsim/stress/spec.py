@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from refsim.stress_search import ENERGY_FACTOR, theory as oscillator_theory
+from refsim.stress.search import ENERGY_FACTOR, theory as oscillator_theory
 
 
 @dataclass(frozen=True)
@@ -103,7 +103,7 @@ class Probe:
 
     def __init__(self, case=None, variant=None, **overrides):
         """`variant`: the case variant searched (None: the spec's, else the first)."""
-        from refsim.stress_search import probe_case
+        from refsim.stress.search import probe_case
         self.case = case if case is not None else probe_case()
         first = variant or next(iter(self.case.variants))
         declared = self.case.stability(self.case.variant_params(first))

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import math
 
-from refsim import store
+from refsim.store import results as store
 
 NEUTRAL = {"description": "", "tags": [], "observable": "", "units": "",
            "tolerance_column": "err_max", "target_error": math.nan, "error_floor": 0.0,

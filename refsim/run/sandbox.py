@@ -28,7 +28,7 @@ RUNTIME_ORIGIN = "registered at run time"
 
 def run_task(task) -> tuple:
     """(job, row) of one task (job, run_id, repeats, budget_s); the row names its host."""
-    from refsim.job import run_job
+    from refsim.run.job import run_job
     job, run_id, repeats, budget_s = task
     row = run_job(job, run_id, repeats, budget_s)
     row["host"] = socket.gethostname()
@@ -37,7 +37,7 @@ def run_task(task) -> tuple:
 
 def lost_row(task, status: str, reason: str, wall_s: float, host: str = "") -> dict:
     """The row of a job whose process died or ran out of time: no result, only why."""
-    from refsim.job import _blank_row
+    from refsim.run.job import _blank_row
     job, run_id = task[0], task[1]
     row = _blank_row(job, run_id)
     # the whole wall time went to the engine call that crashed or hung
@@ -86,7 +86,7 @@ class Sandbox:
 
     def start(self) -> None:
         mine, theirs = socket.socketpair()
-        code = f"from refsim.sandbox import serve; serve({theirs.fileno()})"
+        code = f"from refsim.run.sandbox import serve; serve({theirs.fileno()})"
         self.proc = subprocess.Popen([sys.executable, "-c", code], env=self.env,
                                      pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
         theirs.close()

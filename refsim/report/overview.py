@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from refsim import report_style as rs
+from refsim.report import style as rs
 
 VERDICTS = ("reaches the target", "does not reach the target", "unsupported", "not run")
 TARGET_WORDS = {"reaches the target": "reaches", "does not reach the target": "SHORT"}

@@ -149,7 +149,7 @@ def load_definitions_list(run_dir: Path) -> list[dict]:
 
 def load_definitions(run_dir: Path) -> dict:
     """{(case, variant, params text): definition} of a stored run; {} for a run stored before
-    definitions were kept (refsim.definitions gives those today's definitions, saying so)."""
+    definitions were kept (refsim.store.definitions gives those today's definitions, saying so)."""
     return {definition_key(d): d for d in load_definitions_list(run_dir)}
 
 

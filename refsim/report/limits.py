@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from refsim import report_style as rs
+from refsim.report import style as rs
 
 ROW_IN = 0.2  # inches per line of the figure
 UNBOUNDED = "stable at every y searched"

@@ -138,7 +138,7 @@ def step_matrix(stepper, system, state_template, h) -> np.ndarray:
     return np.concatenate([np.asarray(s) for s in stepped], axis=1).T
 
 
-def oscillator_stable(stepper, y: float, omega: float = 1.0, slack: float = 1e-12) -> bool:
+def step_map_stable(stepper, y: float, omega: float = 1.0, slack: float = 1e-12) -> bool:
     """Stable on x'' = -omega^2 x at y = omega h: spectral radius of the step matrix <= 1."""
     from refsim.models.system import LinearSystem
     system = LinearSystem([[omega * omega]])

@@ -2,7 +2,7 @@
 
 1. Stability limits. For every engine and every fixed-step integrator it offers (adaptive ones
    and those `supports` rejects are skipped): the largest stable y = omega dt, by bisection
-   (refsim.stress_search: batched over y in the in-house engine, one Sim per y elsewhere).
+   (refsim.stress.search: batched over y in the in-house engine, one Sim per y elsewhere).
    Criterion: stable when, at every step over P periods (default 1000; at most 10 P steps),
    the state is finite, the engine reports no failure and the energy stays below F E0,
    F = 1e4 (`Criterion.text`, `f_reason`). Scene: the stiff-spring case with amplitude 1e-7 m,
@@ -32,76 +32,32 @@
    energy first reached F E0.
 4. Store: stress_limits.csv, stress_sweep.csv and manifest.json in a new run directory under
    --out (default reports/runs), and the same figures as an ordinary stored run there
-   (results.csv, rows.jsonl, cases.json: refsim.stress_store) that `refsim report` and
+   (results.csv, rows.jsonl, cases.json: refsim.stress.store) that `refsim report` and
    `refsim compare` read; both tables are printed with the directory. Exit 0: a measured
    instability is data.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import shlex
 import sys
-import time
 from pathlib import Path
 
 import pandas as pd
 
-from refsim import store
-from refsim.stress_report import atomic_csv, print_report
-from refsim.stress_store import store_run
+from refsim.store import results as store
 from refsim.integrators import get_integrator
 from refsim.integrators.spec import spec_name
 from refsim.options import number
-from refsim.stress_search import ENERGY_FACTOR, Y_MAX, Y_MIN, Criterion, find_limit, finite_time, \
+from refsim.stress.search import ENERGY_FACTOR, Y_MAX, Y_MIN, Criterion, find_limit, finite_time, \
     refsim_equivalent
-from refsim.stress_spec import Probe
-from refsim.stress_sweep import (DAMPED_FRACTION, LEGEND, QUICK_SPAN, RESET_WARNINGS,  # noqa
-                                 SWEEP_DT, SWEEP_K, SWEEP_NAMED, SWEEP_PERIODS, SWEEP_SPAN,
-                                 classify, observe_run, sweep_integrators, sweep_row,
-                                 sweep_steps, sweep_table)
+from refsim.stress.spec import Probe
+from refsim.stress.sweep import QUICK_SPAN, SWEEP_DT, SWEEP_K, SWEEP_SPAN
 
 PERIODS, QUICK_PERIODS = 1000, 100
 TOL, QUICK_TOL = 1e-5, 1e-3  # bisection tolerance, relative to max(1, y)
 MAX_PERIODS = 100_000
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--case", default=None,
-                        help="a case that declares its stability parameter (`stability(p)`); "
-                             "default: the stability-probe case, with the stiffness sweep")
-    parser.add_argument("--variant", default=None,
-                        help="the --case variant searched (default: the one its stability "
-                             "spec names, else its first)")
-    parser.add_argument("--engine", action="append",
-                        help="engine (repeatable; default: every available engine)")
-    parser.add_argument("--integrator", action="append",
-                        help="integrator (repeatable; default: every fixed-step one offered)")
-    parser.add_argument("--periods", default=None,
-                        help=f"periods judged per y in the limit search, at most 10 steps "
-                             f"each (default {PERIODS}, --quick {QUICK_PERIODS})")
-    parser.add_argument("--dt", default=None, help=f"sweep time step in s (default {SWEEP_DT})")
-    parser.add_argument("--quick", action="store_true",
-                        help=f"{QUICK_PERIODS} periods, bisection to {QUICK_TOL:g}, "
-                             f"sweep runs of at most {QUICK_SPAN} s")
-    parser.add_argument("--out", default=None, help="runs directory (default reports/runs)")
-
-
-def main(args) -> int:
-    opts = options(args)
-    t0 = time.perf_counter()
-    spring = opts["probe"]
-    st = store.RunStore.create(opts["out"], manifest(opts))
-    limits = limits_table(opts, spring)
-    atomic_csv(st.dir / "stress_limits.csv", limits)
-    sweep = sweep_table(opts) if opts["sweep"] else pd.DataFrame()
-    atomic_csv(st.dir / "stress_sweep.csv", sweep)
-    store_run(st, opts, spring, limits, sweep)
-    st.update_manifest(status="complete", wall_s=round(time.perf_counter() - t0, 2))
-    print_report(opts, spring, limits, sweep)
-    print(st.dir)
-    return 0
 
 
 # --------------------------------------------------------------------------------------------
@@ -128,7 +84,7 @@ def _probe(name, variant=None):
     """(Probe of the case, whether it is the default probe case); ValueError for a case that
     is not registered or declares no stability parameter, or a variant it does not have."""
     from refsim.registry import case_names, get_case
-    from refsim.stress_search import probe_case
+    from refsim.stress.search import probe_case
     default = probe_case()
     name = default.name if name is None else name
     if name == default.name and variant is None:
@@ -276,7 +232,7 @@ def limits_table(opts, spring) -> pd.DataFrame:
     jobs, skipped = limit_jobs(opts, spring)
     for line in skipped:
         print(f"stress: skipped {line}", file=sys.stderr)
-    return pd.DataFrame([limit_row(e, i, spring, opts, form) for e, form, i in jobs])
+    return pd.DataFrame([measure_limit(e, i, spring, opts, form) for e, form, i in jobs])
 
 
 def limit_theory(engine, integrator, spring, crit, variant=""):
@@ -303,7 +259,7 @@ def limit_theory(engine, integrator, spring, crit, variant=""):
     return eq, float(th), why, ft, res
 
 
-def limit_row(engine, integrator, spring, opts, variant="") -> dict:
+def measure_limit(engine, integrator, spring, opts, variant="") -> dict:
     crit, tol = opts["criterion"], opts["tol"]
     row = {"engine": engine.name, "engine_variant": variant, "integrator": integrator,
            "measured": math.nan}

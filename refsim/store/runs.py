@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from refsim.definitions import Definitions
-from refsim.store import DEFAULT_ROOT, KEY, load_results, row_key
+from refsim.store.definitions import Definitions
+from refsim.store.results import DEFAULT_ROOT, KEY, load_results, row_key
 
 
 @dataclass

@@ -20,7 +20,7 @@ the never-stable methods are judged), the state is finite, the engine reports no
 Search (`search_limit`): a descending log grid from Y_MAX = 1e3 to Y_MIN = 1e-3 (8 points a
 decade) brackets the limit from above (stable at Y_MAX: unbounded), then rounds of
 bisection to a tolerance relative to max(1, y). Stable below / unstable above is assumed, as
-in `refsim.metrics.bisect_limit`. The in-house engine evaluates each grid or round as one
+in `refsim.run.metrics.bisect_limit`. The in-house engine evaluates each grid or round as one
 vectorised run (`batch_evaluator`: one oscillator per y, h of shape (batch, 1)); the others
 build one Sim per y (`sim_evaluator`).
 
