@@ -175,8 +175,9 @@ class ModelGroup:
     name: the group (e.g. "rigid"); claims(scene): whether this group runs the scene (e.g. it
     holds rigid bodies); parts / features: the scene part kinds and features it simulates
     (None: not checked, `supports` alone answers, as for a group that only refuses);
-    build(engine, scene, dt, integrator, variant) -> Sim; supports(engine, scene, integrator)
-    -> None or the reason; variants(engine, scene) -> formulations (default ("",));
+    build(engine, scene, dt, integrator, formulation) -> Sim; supports(engine, scene,
+    integrator) -> None or the reason; formulations(engine, scene) -> the formulation names
+    (default ("",));
     integrators: the names it offers (None: the engine's)."""
 
     name: str
@@ -185,7 +186,8 @@ class ModelGroup:
     parts: frozenset = frozenset()
     features: frozenset = frozenset()
     supports: Callable | None = None
-    variants: Callable | None = None
+    formulations: Callable | None = None
+    variants: Callable | None = None  # TRANSITION: the earlier name of `formulations`
     integrators: tuple | None = None
     module: str = field(default="", compare=False)
 
@@ -212,15 +214,20 @@ def discover_groups(engine_cls) -> tuple[ModelGroup, ...]:
 
 
 class Engine:
+    """Who an engine is: its name, the package it needs, its dimensions and integrators, and
+    why it refuses the scene kinds it does not run (`refusals`). What it runs is its model
+    groups (the groups/ modules of its package): every scene goes to the group that claims it."""
+
     name = "engine"
     package: str | None = None  # the Python package the engine needs
-    parts: frozenset | None = None  # scene part kinds simulated (None: not declared)
-    capabilities: frozenset = frozenset()
     dims: tuple = (3,)
     integrators: tuple = ()
     reference = False  # the in-house reference simulator: listed (and reported) first
     equivalents: dict = {}  # own integrator name -> the refsim stepper it equals on an
     #                         undamped spring (the stability search's theory), where it differs
+    refusals: dict = {}  # part kind or feature -> the sentence saying why the engine refuses it
+    groups: tuple = ()  # model groups declared in the class (a small third-party engine's);
+    #                     the groups/ modules of the engine's package are found without it
 
     def available(self) -> bool:
         if self.package is None:
@@ -238,11 +245,11 @@ class Engine:
     @classmethod
     def model_groups(cls) -> tuple[ModelGroup, ...]:
         if "_groups" not in cls.__dict__:
-            cls._groups = discover_groups(cls)
+            cls._groups = tuple(cls.groups) + discover_groups(cls)
         return cls._groups
 
     def group_for(self, scene) -> ModelGroup | None:
-        """The model group (groups/ modules) that runs `scene`, None for the engine's own."""
+        """The model group (groups/ modules) that runs `scene`, None when none claims it."""
         return next((g for g in self.model_groups() if g.claims(scene)), None)
 
     def offered_integrators(self, scene=None) -> tuple:
@@ -251,13 +258,24 @@ class Engine:
             else self.integrators
 
     # -- support ------------------------------------------------------------------------------
+    def refusal(self, scene) -> str:
+        """Why no model group runs `scene`: the `refusals` entry of its first part kind or
+        feature found there (part kinds first, each in sorted order), else a generic sentence."""
+        kinds, features = sorted(scene.part_kinds()), sorted(scene.features())
+        for key in (*kinds, *features):
+            if key in self.refusals:
+                return self.refusals[key]
+        return f"{self.name} has no model group for a scene of {', '.join(kinds)}" + \
+            (f" with {', '.join(features)}" if features else "")
+
     def supports(self, scene, integrator: str | None = None) -> str | None:
         group = self.group_for(scene)
+        if group is None and not self._legacy():
+            return self.refusal(scene)
         parts = group.parts if group is not None else self.parts
         features = group.features if group is not None else self.capabilities
-        kinds = getattr(scene, "part_kinds", None)
-        if parts is not None and kinds is not None:
-            missing = sorted(kinds() - set(parts))
+        if parts is not None:
+            missing = sorted(scene.part_kinds() - set(parts))
             if missing:
                 return f"{self.name} does not simulate {', '.join(missing)}"
         missing = sorted(scene.features() - set(features)) if features is not None else []
@@ -272,19 +290,14 @@ class Engine:
             return group.supports(self, scene, integrator) if group.supports else None
         return self._supports(scene, integrator)
 
-    def _supports(self, scene, integrator: str | None) -> str | None:
-        """Engine-specific reasons beyond parts, features, dimension and integrator."""
-        return None
-
-    def variants(self, scene) -> tuple[str, ...]:
-        return ("",)
-
     def formulations(self, scene) -> tuple[str, ...]:
-        """The scene's formulations: its model group's, else the engine's `variants`."""
+        """The scene's formulations (named alternatives of the same model; "" the default):
+        its model group's."""
         group = self.group_for(scene)
         if group is not None:
-            return group.variants(self, scene) if group.variants else ("",)
-        return self.variants(scene)
+            forms = group.formulations or group.variants
+            return forms(self, scene) if forms else ("",)
+        return self.variants(scene) if self._legacy() else ("",)
 
     def matrix_formulations(self, scene) -> tuple[str, ...]:
         """The formulations `refsim run` puts in its matrix: all of them (`formulations`),
@@ -292,19 +305,32 @@ class Engine:
         (taichi's `parallel` kernel on one thread). They stay buildable by name."""
         return self.formulations(scene)
 
-    def build(self, scene, dt: float, integrator: str, variant: str = "") -> Sim:
+    def build(self, scene, dt: float, integrator: str, formulation: str = "") -> Sim:
         dt = number("dt", dt, unit="s")
         forms = self.formulations(scene)
-        if variant not in forms:
-            raise ValueError(f"{self.name} variant must be one of {list(forms)}, got "
-                             f"{variant!r}")
+        if formulation not in forms:
+            raise ValueError(f"{self.name} formulation must be one of {list(forms)}, got "
+                             f"{formulation!r}")
         reason = self.supports(scene, integrator)
         if reason is not None:
             raise ValueError(reason)
         group = self.group_for(scene)
         if group is not None:
-            return group.build(self, scene, dt, integrator, variant)
-        return self._build(scene, dt, integrator, variant)
+            return group.build(self, scene, dt, integrator, formulation)
+        return self._build(scene, dt, integrator, formulation)
+
+    # -- TRANSITION (issue 24, item 1): engines not yet wholly in model groups ---------------
+    parts: frozenset | None = None
+    capabilities: frozenset = frozenset()
+
+    def _legacy(self) -> bool:
+        return type(self)._build is not Engine._build
+
+    def _supports(self, scene, integrator: str | None) -> str | None:
+        return None
+
+    def variants(self, scene) -> tuple[str, ...]:
+        return ("",)
 
     def _build(self, scene, dt: float, integrator: str, variant: str) -> Sim:
         raise NotImplementedError

@@ -168,3 +168,8 @@ class ArrayPart:
 
     def features(self) -> set[str]:
         return set()
+
+    @classmethod
+    def of(cls, value):
+        """The part itself, or the part built from a tuple of its records (`from_records`)."""
+        return value if isinstance(value, cls) else cls.from_records(tuple(value))

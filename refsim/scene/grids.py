@@ -78,6 +78,7 @@ class Grid(ArrayPart):
     coefficients: dict = field(default_factory=dict)
 
     kind = "grids"
+    many = True  # a scene may hold several grids (field names distinct across them)
 
     def __post_init__(self):
         shape = _shape(self.shape)

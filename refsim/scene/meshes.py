@@ -83,6 +83,7 @@ class TriangleMesh(ArrayPart):
     thickness: float = 1.0
 
     kind = "meshes"
+    many = True  # a scene may hold several meshes
 
     def __post_init__(self):
         vertices = float_array("mesh.vertices", self.vertices, (None, 3))

@@ -91,6 +91,7 @@ class SpringNetwork(ArrayPart):
     pinned: np.ndarray | None = None
 
     kind = "networks"
+    many = True  # a scene may hold several networks
 
     def __post_init__(self):
         x = float_array("network.positions", self.positions, (None, 3))

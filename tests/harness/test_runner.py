@@ -55,7 +55,7 @@ def test_divergence_is_detected_early():
 
 def test_unsupported_scene_has_a_reason():
     row = run_job(Job("pendulum", "default", "refsim", "", "rk4", 1e-3), repeats=0)
-    assert row["status"] == "failed" and "variant must be one of" in row["reason"]
+    assert row["status"] == "failed" and "formulation must be one of" in row["reason"]
 
 
 def test_timing_pass_is_separate_and_repeated():

@@ -42,7 +42,7 @@ def test_stepper_failure_becomes_failure_and_stops_stepping():
 def test_build_refuses_a_variant_the_scene_has_not(case_name, variant):
     case = get_case(case_name)
     p = case.validate()
-    with pytest.raises(ValueError, match="refsim variant must be one of"):
+    with pytest.raises(ValueError, match="refsim formulation must be one of"):
         get_engine("refsim").build(case.scene(p), case.dts(p)[0], "symplectic_euler", variant)
 
 

@@ -126,7 +126,7 @@ def test_claims_supports_and_bad_input():
     free = Scene(rigid=RigidBodies(mass=[1.0], inertia=[np.eye(3)], position=[[0, 0, 1.0]],
                                    orientation=[[1.0, 0, 0, 0]]))
     assert TAICHI.group_for(free).name == "rigid"  # free bodies stay with the rigid group
-    with pytest.raises(ValueError, match="variant must be one of"):
+    with pytest.raises(ValueError, match="formulation must be one of"):
         TAICHI.build(scene, 1e-2, "symplectic_euler", "matrix_printed")
     with pytest.raises(ValueError, match="integrator"):
         TAICHI.build(scene, 1e-2, "velocity_verlet", "quat_exp")
