@@ -35,7 +35,7 @@ def _engine(name):
 
 def ftcs_rows(sizes, repeats):
     """[{engine, n, seconds_per_step, cell_updates_per_s}] for a 2D FTCS step at r = 0.2."""
-    from refsim_cases.fdm.heat_mode import CASE
+    from refsim_cases.grid_evolution.heat_mode import CASE
     rows = []
     for n in sizes:
         p = CASE.validate({"dim": 2, "cells": n - 1})
@@ -164,7 +164,7 @@ def poisson_goals(rows):
 
 def space_orders(quick):
     """Fitted orders in h of the error against the PDE (section 3)."""
-    from refsim_cases.fdm.heat_mode import CASE as HEAT
+    from refsim_cases.grid_evolution.heat_mode import CASE as HEAT
     print("3. space orders (error against the PDE; fitted slope of log error over log h)")
     figures, cells = [], (8, 16, 32) if quick else (8, 16, 32, 64)
     for label, r in (("FTCS, r = 1/4", 0.25), ("FTCS, r = 1/6", 1.0 / 6)):

@@ -24,7 +24,7 @@ DENSITY, CUTOFF = 0.7, 2.5
 
 def gas_positions(n, seed=1):
     """(positions (n, 3), box side): the lattice start of the lj_gas case, jittered."""
-    from refsim_cases.particle_fields.lj_gas import lattice_start
+    from refsim_cases.lennard_jones.lj_gas import lattice_start
     x, _, side = lattice_start(n, DENSITY, 1.0, seed)
     x[:, :2] += np.random.default_rng(seed).uniform(-0.1, 0.1, (n, 2))
     return x, side

@@ -193,7 +193,7 @@ class Case:
 
     def source_hash(self) -> str:
         """Hash of the source of every module the case is built from: its own and its base
-        classes' outside refsim.case (e.g. a shared cases/contacts/_impact.py), and the modules
+        classes' outside refsim.case (e.g. a shared cases/spheres/_impact.py), and the modules
         of its own package those import from (e.g. a shared bounds helper,
         cases/rigid/_bounds.py), so that an edit to a shared helper module changes the hash of
         every case using it."""
@@ -245,10 +245,12 @@ class Case:
 
 
 def _package_imports(module) -> list:
-    """The modules of `module`'s own package that it imports names or modules from."""
+    """The modules of `module`'s own distribution package (its top-level package, e.g.
+    refsim_cases: a case may share helpers with another model group's folder) that it imports
+    names or modules from."""
     if module is None or "." not in module.__name__:
         return []
-    package = module.__name__.rsplit(".", 1)[0] + "."
+    package = module.__name__.split(".", 1)[0] + "."
     found = []
     for value in vars(module).values():
         source = value if inspect.ismodule(value) else inspect.getmodule(value)

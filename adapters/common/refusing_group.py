@@ -1,5 +1,5 @@
 """A model group that only refuses, with a reason: by default it claims rigid bodies in frictional contact (`RigidShapes` with walls and a
-contact model, e.g. cases/rigid/rolling_disc.py) only to refuse them with a reason, for an
+contact model, e.g. cases/contact_rolling/rolling_disc.py) only to refuse them with a reason, for an
 engine whose rigid-body model has no contact. Without it the parts check would answer "does
 not simulate rigid, rigid_shapes", as if the engine had no rigid bodies at all."""
 from __future__ import annotations

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from refsim_adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
-from refsim_cases.particle_fields.boids import CASE
+from refsim_cases.flocking.boids import CASE
 from refsim.models.flocking import velocity_variance
 
 
@@ -63,7 +63,7 @@ def test_frozen_error_is_the_discrete_solution_of_the_full_linear_system():
     system x'' = B v (one coordinate at a time) to a relative 1e-8."""
     from scipy.linalg import expm
 
-    from refsim_cases.particle_fields.boids import alignment_laplacian, frozen_error
+    from refsim_cases.flocking.boids import alignment_laplacian, frozen_error
     from refsim.expected import discrete_solution
     x0, v0 = CASE.initial_state(P)
     n, dt = len(x0), 0.04

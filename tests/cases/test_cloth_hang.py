@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from refsim_adapters.planted_defects.checks import defect_uncaught
-from refsim_cases.networks._cloth_grid import (dihedral_quads, grid_positions, shear_edges,
+from refsim_cases.spring_network._cloth_grid import (dihedral_quads, grid_positions, shear_edges,
                                         structural_edges)
-from refsim_cases.networks.cloth_hang import CASE, cloth_network, edge_strain
+from refsim_cases.spring_network.cloth_hang import CASE, cloth_network, edge_strain
 from refsim import registry
 from refsim.run.job import Job, run_job
 from refsim.scene.networks import dihedral_angles

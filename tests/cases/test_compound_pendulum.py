@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from refsim_adapters.planted_defects.checks import defect_uncaught
-from refsim_cases.rigid.compound_pendulum import CASE, rod_rate, small_swing_periods
+from refsim_cases.pivots.compound_pendulum import CASE, rod_rate, small_swing_periods
 from refsim.registry import get_engine
 
 ENGINE = get_engine("refsim")

@@ -4,7 +4,7 @@ numbers, and a box that starts legal (inside, no overlap, zero momentum, mean sp
 import numpy as np
 import pytest
 
-from refsim_cases.contacts._impact import penetration
+from refsim_cases.spheres._impact import penetration
 from refsim.registry import get_case
 
 PAIRS, CRADLE, BOX = get_case("sphere_pairs"), get_case("newtons_cradle"), get_case("sphere_box")

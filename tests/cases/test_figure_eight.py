@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from refsim_cases.particle_fields.figure_eight import (
+from refsim_cases.gravity_pairs.figure_eight import (
     CASE,
     G,
     MASSES,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from refsim_adapters.planted_defects.checks import job_uncaught
-from refsim_cases.particle_fields.gradient_descent import CASE
+from refsim_cases.first_order_fields.gradient_descent import CASE
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.tableaux import RK4
 from refsim.run.job import Job, run_job

@@ -4,7 +4,7 @@ stated tolerance, and Baraff-Witkin at large dt reaching it in a few (Newton-lik
 import numpy as np
 import pytest
 
-from refsim_cases.networks.hair_cantilever import (
+from refsim_cases.spring_network.hair_cantilever import (
     CASE,
     G,
     hair_equilibrium,

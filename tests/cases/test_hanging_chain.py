@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from refsim_cases.networks._chain import catenary_parameter, catenary_sag, chain_equilibrium
-from refsim_cases.networks.hanging_chain import CASE, G
+from refsim_cases.spring_network._chain import catenary_parameter, catenary_sag, chain_equilibrium
+from refsim_cases.spring_network.hanging_chain import CASE, G
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from refsim_cases.fdm.heat_mode import CASE
+from refsim_cases.grid_evolution.heat_mode import CASE
 from refsim.registry import get_engine
 from refsim.run.job import Job, run_job
 

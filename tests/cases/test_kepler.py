@@ -2,14 +2,14 @@
 import numpy as np
 import pytest
 
-from refsim_cases.particle_fields._orbits import (
+from refsim_cases.gravity_pairs._orbits import (
     kepler_residual,
     measured_period,
     relative_orbit,
     solve_kepler,
     two_body_state,
 )
-from refsim_cases.particle_fields.kepler import CASE, masses, period
+from refsim_cases.gravity_pairs.kepler import CASE, masses, period
 from refsim.run.metrics import convergence_order
 from refsim.models.nbody_gravity import angular_momentum, runge_lenz, total_energy
 from refsim_adapters.planted_defects.checks import bound_misfits, job_error, job_uncaught, sweep

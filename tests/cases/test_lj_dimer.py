@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from refsim_cases.particle_fields.lj_dimer import (CASE, K_REDUCED, R0_OVER_SIGMA, crossing_times,
+from refsim_cases.lennard_jones.lj_dimer import (CASE, K_REDUCED, R0_OVER_SIGMA, crossing_times,
                                             curvature, exact_period, force, potential,
                                             reference_separation, small_vibration_omega,
                                             turning_points)
@@ -20,7 +20,7 @@ EPS = np.finfo(float).eps
 @pytest.fixture(scope="module", autouse=True)
 def registered():
     if "lj_dimer" not in registry.names("case"):
-        registry.register("case", "lj_dimer", "refsim_cases.particle_fields.lj_dimer:CASE")
+        registry.register("case", "lj_dimer", "refsim_cases.lennard_jones.lj_dimer:CASE")
 
 
 def test_stiffness_is_36_two_to_two_thirds():

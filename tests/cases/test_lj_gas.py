@@ -4,7 +4,7 @@ energy error converges at order 2 on the fixed horizon (explicit Euler's at orde
 import numpy as np
 import pytest
 
-from refsim_cases.particle_fields.lj_gas import CASE, lattice_start, thermal_omega
+from refsim_cases.lennard_jones.lj_gas import CASE, lattice_start, thermal_omega
 from refsim_adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
 from refsim import registry
 from refsim.testing import accuracy, measured_order
@@ -15,7 +15,7 @@ EPS = np.finfo(float).eps
 @pytest.fixture(scope="module", autouse=True)
 def registered():
     if "lj_gas" not in registry.names("case"):
-        registry.register("case", "lj_gas", "refsim_cases.particle_fields.lj_gas:CASE")
+        registry.register("case", "lj_gas", "refsim_cases.lennard_jones.lj_gas:CASE")
 
 
 def test_start_has_zero_momentum_and_exact_temperature():

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from refsim_cases.fdm.poisson_manufactured import CASE, discrete_factor, lambda_min
+from refsim_cases.grid_poisson.poisson_manufactured import CASE, discrete_factor, lambda_min
 from refsim import registry
 from refsim.run.job import Job, run_job
 from refsim.models.grid_laplacian import GridLaplacian
@@ -24,7 +24,7 @@ def registered_case():
     """The case's entry point is not in the shared venv's metadata until reinstalled."""
     known = CASE.name in registry.case_names()
     if not known:
-        registry.register("case", CASE.name, "refsim_cases.fdm.poisson_manufactured:CASE")
+        registry.register("case", CASE.name, "refsim_cases.grid_poisson.poisson_manufactured:CASE")
     yield
     if not known:
         registry.unregister("case", CASE.name)

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from refsim_cases.rigid.rolling_disc import (
+from refsim_cases.contact_rolling.rolling_disc import (
     CASE,
     accelerations,
     body_inertia,
@@ -69,7 +69,7 @@ def test_first_order_bound_is_the_split_error_times_the_stated_safety_factor():
     """Order < 2: SAFETY x a t h / 2 (+ round-off, no soft contact given); order >= 2: a
     constant acceleration is exact, round-off only, so a dt-independent error (MuJoCo's
     slipping rk4, 1.9e-5) exceeds it."""
-    from refsim_cases.rigid.rolling_disc import SAFETY
+    from refsim_cases.contact_rolling.rolling_disc import SAFETY
     for variant in CASE.variants:
         p = CASE.variant_params(variant)
         a = accelerations(p)[0]

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from refsim_cases.contacts.sphere_pairs import CASE
+from refsim_cases.spheres.sphere_pairs import CASE
 from refsim.run.job import Job, run_job
 from refsim.registry import get_engine
 

@@ -2,7 +2,7 @@
 falls monotonically."""
 import pytest
 
-from refsim_cases.particle_fields.sphere_sampling import CASE
+from refsim_cases.first_order_fields.sphere_sampling import CASE
 from refsim.run.job import Job, run_job
 
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from refsim_adapters.planted_defects.checks import job_error, job_uncaught
-from refsim_cases.particle_fields.sprinkler import CASE
+from refsim_cases.emitter.sprinkler import CASE
 from refsim.models import emitter as em
 
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from refsim_cases.networks._linear_steps import backward_euler_factor, mode_amplitude
-from refsim_cases.networks.string_modes import CASE
+from refsim_cases.spring_network._linear_steps import backward_euler_factor, mode_amplitude
+from refsim_cases.spring_network.string_modes import CASE
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
 from refsim.run.job import Job, run_job

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from refsim_cases.fdm.wave_mode import CASE, discrete_u
+from refsim_cases.grid_evolution.wave_mode import CASE, discrete_u
 from refsim.registry import get_engine
 from refsim.run.job import Job, run_job
 

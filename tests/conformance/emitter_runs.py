@@ -1,10 +1,10 @@
-"""A run of the sprinkler case (cases/particle_fields/sprinkler.py) on an engine, observed after
+"""A run of the sprinkler case (cases/emitter/sprinkler.py) on an engine, observed after
 each chunk of steps: shared by tests/conformance/test_conformance_emitter.py and the taichi
 emitter tests. Imported by basename (tests/engines/conftest.py puts this directory on the
 path)."""
 import numpy as np
 
-from refsim_cases.particle_fields.sprinkler import CASE as EMITTER
+from refsim_cases.emitter.sprinkler import CASE as EMITTER
 from refsim.registry import get_engine
 
 

@@ -1,4 +1,4 @@
-"""The emitter group (the slide's sprinkler, cases/particle_fields/sprinkler.py) on every engine
+"""The emitter group (the slide's sprinkler, cases/emitter/sprinkler.py) on every engine
 that runs it: refsim (refsim/models/emitter.py) and taichi (its emitter kernels). Every live
 particle lies on the exact discrete parabola of its stepper from its spawn state (to
 round-off), with the births on the step grid of the formulation, per stepper and formulation;

@@ -1,5 +1,5 @@
 """The rolling group on every engine that runs it (adapters/<engine>_engine/groups/..rolling):
-MuJoCo, pybullet and pymunk on the rolling_disc case (cases/rigid/rolling_disc.py): s(t)
+MuJoCo, pybullet and pymunk on the rolling_disc case (cases/contact_rolling/rolling_disc.py): s(t)
 against the exact a t^2 / 2 within the case's tolerance (split step a t h / 2, soft-contact
 radius, round-off), the rolling residual and the spin. Rows that exceed the tolerance and that
 no derivation bounds are xfail(strict) with the numbers, per engine (ROLLING). What is one
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from installed_engines import installed
 
-from refsim_cases.rigid.rolling_disc import CASE, observed_errors
+from refsim_cases.contact_rolling.rolling_disc import CASE, observed_errors
 
 # Per engine: (integrator, {variant: xfail reason with the numbers}). The notes say what each
 # engine does on the rows it passes.
@@ -19,14 +19,14 @@ ROLLING = {
     # slipping: MuJoCo's sliding contact (d = 0.9999, elliptic or pyramidal cone, any impratio,
     # noslip) pushes the disc up: it hops (gap up to 0.7 mm, contact lost), s(1) err 2.035e-3 at
     # dt = 1 ms, 1.003 x the split error a t h / 2 = 2.028e-3: inside the case's bound, which
-    # carries a stated safety factor 2 for the contact's onset (cases/rigid/rolling_disc.py);
+    # carries a stated safety factor 2 for the contact's onset (cases/contact_rolling/rolling_disc.py);
     # spin off by 0.22 rad/s.
     "mujoco": ("symplectic_euler", {}),
     # Bullet's rolling contact (sphere shape) rolls exactly (residual 1e-15) but runs ahead by a
     # velocity offset proportional to dt (disc 0.234 h, hoop 1.05 h m/s): s(1) err 1.869e-3
     # (disc), 2.277e-3 (hoop) at 1 ms, 1.14 and 1.86 x the split error a t h / 2 = 1.635e-3,
     # 1.226e-3: inside the case's bound, which carries a stated safety factor 2 for the
-    # contact's onset (cases/rigid/rolling_disc.py). An O(h) offset, so still first order:
+    # contact's onset (cases/contact_rolling/rolling_disc.py). An O(h) offset, so still first order:
     # consistent.
     "pybullet": ("symplectic_euler", {}),
     "pymunk": ("symplectic_euler_dk", {}),

@@ -26,7 +26,7 @@ def parse(*argv):
 def test_kdk_cfl_limit_without_diffusion_is_leapfrogs_omega_dt_of_two():
     """Without delta-SPH the limit is omega_max dt = 2 with omega_max = c0 V max|G(k)|, so
     CFL * h V max|G| = 2: recomputed here from the lattice sum by brute force."""
-    from refsim_cases.fluids.hydrostatic_tank import kdk_cfl_limit
+    from refsim_cases.sph.hydrostatic_tank import kdk_cfl_limit
     from refsim.models.sph import wendland_gradient_factor
     h = 1.3
     n = np.arange(-4, 5, dtype=float)

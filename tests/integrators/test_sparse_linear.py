@@ -4,8 +4,8 @@ and the explicit theta step (FTCS) is u + h A u."""
 import numpy as np
 import pytest
 
-from refsim_cases.fdm._modes import ModeGrid
-from refsim_cases.fdm.wave_mode import step_matrix
+from refsim_cases.grid_evolution._modes import ModeGrid
+from refsim_cases.grid_evolution.wave_mode import step_matrix
 from refsim.integrators.sparse_linear import first_order_implicit, second_order_implicit
 from refsim.models.grid_pde import GridPDE
 

@@ -6,7 +6,7 @@ import itertools
 import numpy as np
 import pytest
 
-from refsim_cases.fdm._modes import ModeGrid
+from refsim_cases.grid_evolution._modes import ModeGrid
 from refsim.models.grid_laplacian import GridLaplacian
 
 SIDES = [("dirichlet", "dirichlet"), ("neumann", "neumann"), ("periodic", "periodic"),

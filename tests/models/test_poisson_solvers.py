@@ -54,7 +54,7 @@ def test_every_solver_reaches_the_exact_discrete_solution(method, dim, n):
     assert info["iterations"] >= 1 and info["setup_s"] >= 0 and info["solve_s"] >= 0
     scale = np.linalg.norm(exact)
     # the reference's own rounding: sin of rounded pi x, d factors (<= 2^(d/2) d (2 pi + 2)
-    # eps ||u_h||, in f and in u_h) - see cases/fdm/poisson_manufactured.py
+    # eps ||u_h||, in f and in u_h) - see cases/grid_poisson/poisson_manufactured.py
     roundoff = (2 * 2 ** (dim / 2) * dim * (2 * math.pi + 2) + 1) * EPS * scale
     assert np.linalg.norm(u - exact) <= error_bound(problem, info["residual"], lam, scale) \
         + roundoff

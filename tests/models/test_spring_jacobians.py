@@ -4,7 +4,7 @@ its stated tolerance) and, on a linear string, is exactly backward Euler on ever
 import numpy as np
 import pytest
 
-from refsim_cases.fdm.wave_mode import step_matrix
+from refsim_cases.grid_evolution.wave_mode import step_matrix
 from refsim.integrators.implicit import SPARSE_MIN, BaraffWitkin, implicit_matrix, matvec, solve
 from refsim.models.forces import SpringSet
 from refsim.models.spring_jacobians import sparse_jacobians

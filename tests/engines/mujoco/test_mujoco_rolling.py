@@ -5,7 +5,7 @@ on the slipping rows; the rolling residual) are in
 tests/conformance/test_conformance_rolling.py."""
 import pytest
 
-from refsim_cases.rigid.rolling_disc import CASE, observed_errors
+from refsim_cases.contact_rolling.rolling_disc import CASE, observed_errors
 from refsim import registry
 
 pytest.importorskip("mujoco")

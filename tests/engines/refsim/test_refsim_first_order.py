@@ -3,8 +3,8 @@ import json
 
 import numpy as np
 
-from refsim_cases.particle_fields.advection_vortex import CASE as VORTEX
-from refsim_cases.particle_fields.sphere_sampling import CASE as SAMPLING
+from refsim_cases.first_order_fields.advection_vortex import CASE as VORTEX
+from refsim_cases.first_order_fields.sphere_sampling import CASE as SAMPLING
 from refsim import registry
 from refsim.observation import check_observation
 from refsim.scene import Particles, Scene

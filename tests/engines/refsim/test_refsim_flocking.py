@@ -4,8 +4,8 @@ taichi, is checked in tests/conformance/test_conformance_emitter.py."""
 import numpy as np
 import pytest
 
-from refsim_cases.particle_fields.boids import CASE as BOIDS
-from refsim_cases.particle_fields.sprinkler import CASE as EMITTER
+from refsim_cases.flocking.boids import CASE as BOIDS
+from refsim_cases.emitter.sprinkler import CASE as EMITTER
 from refsim.models import emitter as em
 from refsim.registry import get_engine
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from refsim_adapters.refsim_engine.engine import RefsimEngine
-from refsim_cases.particle_fields.lj_dimer import CASE as DIMER
-from refsim_cases.particle_fields.lj_gas import CASE as GAS
+from refsim_cases.lennard_jones.lj_dimer import CASE as DIMER
+from refsim_cases.lennard_jones.lj_gas import CASE as GAS
 from refsim import registry
 from refsim.scene import Particles, Scene
 from refsim.scene.lennard_jones import LennardJones
@@ -20,7 +20,7 @@ EPS = np.finfo(float).eps
 def registered():
     for name in ("lj_dimer", "lj_gas"):
         if name not in registry.names("case"):
-            registry.register("case", name, f"refsim_cases.particle_fields.{name}:CASE")
+            registry.register("case", name, f"refsim_cases.lennard_jones.{name}:CASE")
 
 
 def _two_atoms(dim=3, box=None, z=0.0):

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from refsim_cases.particle_fields.advection_vortex import CASE as VORTEX
-from refsim_cases.particle_fields.gradient_descent import CASE as DESCENT
-from refsim_cases.particle_fields.sphere_sampling import CASE as SAMPLING
+from refsim_cases.first_order_fields.advection_vortex import CASE as VORTEX
+from refsim_cases.first_order_fields.gradient_descent import CASE as DESCENT
+from refsim_cases.first_order_fields.sphere_sampling import CASE as SAMPLING
 from refsim import registry
 from refsim.integrators.first_order import get_first_order
 from refsim.models.advection import discrete_positions

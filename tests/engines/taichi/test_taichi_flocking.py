@@ -5,7 +5,7 @@ import pytest
 
 pytest.importorskip("taichi")
 
-from refsim_cases.particle_fields.boids import CASE as BOIDS
+from refsim_cases.flocking.boids import CASE as BOIDS
 from refsim.registry import get_engine
 
 EPS = np.finfo(float).eps

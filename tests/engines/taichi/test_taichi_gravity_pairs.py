@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from refsim_cases.particle_fields.kepler import CASE
+from refsim_cases.gravity_pairs.kepler import CASE
 from refsim.registry import get_engine
 from refsim.scene import Particles, Scene
 from refsim.scene.gravity_pairs import GravityPairs

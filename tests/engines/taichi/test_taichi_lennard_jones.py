@@ -8,8 +8,8 @@ pytest.importorskip("taichi")
 
 from refsim_adapters.refsim_engine.engine import RefsimEngine  # noqa: E402
 from refsim_adapters.taichi_engine.engine import TaichiEngine  # noqa: E402
-from refsim_cases.particle_fields.lj_dimer import CASE as DIMER  # noqa: E402
-from refsim_cases.particle_fields.lj_gas import CASE as GAS  # noqa: E402
+from refsim_cases.lennard_jones.lj_dimer import CASE as DIMER  # noqa: E402
+from refsim_cases.lennard_jones.lj_gas import CASE as GAS  # noqa: E402
 from refsim.scene import Particles, Scene  # noqa: E402
 from refsim.scene.lennard_jones import LennardJones  # noqa: E402
 

@@ -14,7 +14,7 @@ import pytest
 from refsim.registry import get_engine
 from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
-from refsim_cases.fluids.dam_break import clock_spread_rms
+from refsim_cases.sph.dam_break import clock_spread_rms
 from refsim.testing import accuracy
 
 VV = "velocity_verlet"

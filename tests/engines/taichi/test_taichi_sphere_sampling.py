@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from refsim_adapters.common.first_order import SAMPLING_INTEGRATORS
-from refsim_cases.particle_fields.sphere_sampling import CASE
+from refsim_cases.first_order_fields.sphere_sampling import CASE
 from refsim.integrators.first_order import get_first_order
 from refsim.run.job import Job, run_job
 from refsim.registry import get_engine

@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from refsim_cases.fluids._sph_tank import TANK_PARAMS, SPHTankCase
+from refsim_cases.sph._sph_tank import TANK_PARAMS, SPHTankCase
 from refsim.case import Param
 
 DATA = Path(__file__).parent.parent / "data" / "martin_moyce_1952_table2_front_n2eq2.csv"

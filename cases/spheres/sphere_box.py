@@ -9,13 +9,13 @@ kinetic energy exactly; the compared observable is the relative kinetic-energy e
 contact, bounded through the collision rate v / l with Maxwell's mean free path of a dilute
 hard-sphere gas, l = 1 / (sqrt 2 n pi (2r)^2). `momentum_drift` is net of the walls' impulse
 (NaN where the engine does not report it); `penetration_max` includes the walls. See
-`refsim_cases.contacts._impact` for the shared conventions.
+`refsim_cases.spheres._impact` for the shared conventions.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from refsim_cases.contacts._impact import (
+from refsim_cases.spheres._impact import (
     SPHERE_PARAMS,
     kinetic_energy,
     momentum_drift,

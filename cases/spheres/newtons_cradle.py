@@ -9,13 +9,13 @@ chain: the pulse spreads); err_* report that departure. Whichever way an engine 
 simultaneous contacts, elastic impulses conserve momentum and kinetic energy (Herrmann &
 Seitz, "How does the ball-chain work?", Am. J. Phys. 50, 977 (1982)): the tolerance bounds
 `conservation_err`, the larger of the momentum drift and the relative kinetic-energy change
-after the impacts. Other observables and metrics: see `refsim_cases.contacts._impact`.
+after the impacts. Other observables and metrics: see `refsim_cases.spheres._impact`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from refsim_cases.contacts._impact import SPHERE_PARAMS, SingleImpactCase, kinetic_energy
+from refsim_cases.spheres._impact import SPHERE_PARAMS, SingleImpactCase, kinetic_energy
 from refsim.case import Param
 from refsim.engine import ContactInfo
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim_cases.fluids._sph_tank import RHO0, TANK_PARAMS, SPHTankCase
+from refsim_cases.sph._sph_tank import RHO0, TANK_PARAMS, SPHTankCase
 from refsim.case import Param
 
 

@@ -11,7 +11,7 @@ Head-on with v1 = 1, v2 = -1: equal masses give (-e, e); 1:3 gives (-2, 0) at e 
 friction, the tangential impulse follows the Coulomb stick/slide law for one impact of
 Guendelman, Bridson & Fedkiw, "Nonconvex rigid bodies with stacking", SIGGRAPH 2003.
 
-Observables and metrics: see `refsim_cases.contacts._impact` (`velocity` in m/s compared after the
+Observables and metrics: see `refsim_cases.spheres._impact` (`velocity` in m/s compared after the
 impact, `position_err`, `momentum_drift`, `penetration_max`, `energy_drift` against the exact
 kinetic energy). Bounds (`tolerance`): an impulse contact gives the exact outcome to
 round-off; discrete detection on an oblique impact finds the pair up to a step late, its centre
@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim_cases.contacts._impact import SPHERE_PARAMS, SingleImpactCase
+from refsim_cases.spheres._impact import SPHERE_PARAMS, SingleImpactCase
 from refsim.case import Param
 from refsim.engine import ContactInfo
 

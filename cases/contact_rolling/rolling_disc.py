@@ -30,7 +30,7 @@ from refsim.engine import ContactInfo
 from refsim.scene import ContactModel, RigidBodies, Scene, Wall
 from refsim.scene.rigid_shapes import RigidShapes
 
-from . import RigidCase
+from refsim_cases.rigid import RigidCase
 
 SAFETY = 2.0  # the one safety factor of the first-order bound (tolerance)
 SPLIT_NOTE = ("kick-drift (v first) gives s_k = a h^2 k (k + 1) / 2, drift-kick k (k - 1) / 2: "

@@ -23,8 +23,8 @@ from refsim.case import ADAPTIVE_REASON, Param, adaptive_rtol, roundoff_toleranc
 from refsim.scene import RigidBodies, Scene
 from refsim.scene.pivots import RigidPivots
 
-from . import RigidCase, rotation_quaternion
-from ._bounds import PRINTED_REASON, chart_error, linear_swing_error, mode_error
+from refsim_cases.rigid import RigidCase, rotation_quaternion
+from refsim_cases.rigid._bounds import PRINTED_REASON, chart_error, linear_swing_error, mode_error
 
 AXIAL_RADIUS = 1e-2  # rod radius / L: axial moment m (L/100)^2 / 2
 SAFETY = 2.0  # the one safety factor of the bound (tolerance)

@@ -1,0 +1,1 @@
+"""Model group `emitter`: particles born by an emitter (a sprinkler)."""

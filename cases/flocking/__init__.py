@@ -1,0 +1,1 @@
+"""Model group `flocking`: boids under the flocking rules."""

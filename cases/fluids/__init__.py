@@ -1,2 +1,0 @@
-"""Fluid cases: SPH water in a tank (one scenario per module; shared tank helpers in
-`_sph_tank`)."""

@@ -1,0 +1,1 @@
+"""Model group `lennard_jones`: particles under Lennard-Jones pair forces (a dimer, a gas)."""

@@ -1,0 +1,2 @@
+"""Model group `sph`: SPH water in a tank (one scenario per module; shared tank helpers in
+`_sph_tank`)."""
