@@ -43,7 +43,7 @@ def cloth_scene(n):
                        np.c_[idx[:-1, 1:].ravel(), idx[1:, :-1].ravel()]])
     net = SpringNetwork(positions=x, masses=MASS / (n * n), edges=edges, stiffness=STIFFNESS,
                         damping=DAMPING, pinned=[0, n - 1])
-    return Scene(networks=(net,), gravity=(0, 0, -9.81), linear_drag=DRAG)
+    return Scene(parts=(net,), gravity=(0, 0, -9.81), linear_drag=DRAG)
 
 
 def timed(fn, repeats):
@@ -63,7 +63,8 @@ def refsim_rows(scene, n, repeats):
     from scipy.sparse.linalg import cg, splu, spsolve
 
     from refsim.models.spring_network import NetworkSystem
-    net = scene.networks[0]
+    from refsim.scene import SpringNetwork
+    net = scene.part(SpringNetwork)
     system = NetworkSystem(net, scene.gravity, scene.linear_drag)
     x, v = net.positions[system.free].ravel(), net.velocities[system.free].ravel()
     m = np.repeat(system.masses, 3)

@@ -54,7 +54,7 @@ def taichi_eval(x, side, repeats):
     from refsim.scene import Particles, Scene
     from refsim.scene.lennard_jones import LennardJones
     part = LennardJones(cutoff=CUTOFF, shift=True, box=(side, side))
-    scene = Scene(bodies=Particles(mass=np.ones(len(x)), position=x), extra=(part,), dim=2)
+    scene = Scene(parts=(Particles(mass=np.ones(len(x)), position=x), part), dim=2)
     sim = engine.build(scene, 1e-3, "explicit_euler")  # compiles; a(x) below, no step
     advance_lj(sim.x, sim.v, sim.pack, 0.0, 1, START)  # warm-up
     ti = runtime()["ti"]

@@ -40,8 +40,8 @@ def free_bodies(n: int, seed: int = 7):
     quat = Rotation.random(n, random_state=rng).as_quat()[:, [3, 0, 1, 2]]  # (w, x, y, z)
     positions = np.column_stack([np.arange(n) * 0.01, np.zeros(n), np.zeros(n)])
     spins = rng.normal(0.0, 1.0 / np.sqrt(3.0), (n, 3))
-    return Scene(rigid=RigidBodies(mass=np.ones(n), inertia=inertia, position=positions,
-                                   orientation=quat, angular_velocity=spins))
+    return Scene(parts=(RigidBodies(mass=np.ones(n), inertia=inertia, position=positions,
+                                   orientation=quat, angular_velocity=spins),))
 
 
 def rigid_throughput(n: int, steps: int, figures: list | None = None):

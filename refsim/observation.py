@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from refsim.scene import MOVING_KINDS
+from refsim.scene import (MOVING_KINDS, FluidBlock, Grid, Joints, Particles, RigidBodies,
+                          SpringNetwork, TriangleMesh)
 
 
 @dataclass(frozen=True)
@@ -73,11 +74,13 @@ OBSERVABLES: tuple[Observable, ...] = (
 
 
 def _counts(scene) -> dict[str, int]:
-    networks = sum(len(n) for n in scene.networks)
-    meshes = sum(len(m) for m in scene.meshes)
-    return {"n": len(scene.rigid) if scene.rigid is not None else len(scene.particles),
-            "k": len(scene.joint_set),
-            "f": scene.fluid.particle_count if scene.fluid is not None else 0,
+    networks = sum(len(n) for n in scene.parts_of(SpringNetwork))
+    meshes = sum(len(m) for m in scene.parts_of(TriangleMesh))
+    rigid, particles = scene.part(RigidBodies), scene.part(Particles)
+    joints, fluid = scene.part(Joints), scene.part(FluidBlock)
+    return {"n": len(rigid) if rigid is not None else len(particles or ()),
+            "k": len(joints or ()),
+            "f": fluid.particle_count if fluid is not None else 0,
             "N": networks or meshes}
 
 
@@ -94,7 +97,7 @@ def expected(scene) -> dict[str, tuple[tuple[int, ...], bool]]:
         if o.part in MOVING_KINDS and o.part != moving:
             continue
         if o.part == "grids":
-            out.update({f"grid.{name}": (g.shape, True) for g in scene.grids
+            out.update({f"grid.{name}": (g.shape, True) for g in scene.parts_of(Grid)
                         for name in g.fields})
             continue
         required = o.required and (o.part == "scene" or o.part in kinds)

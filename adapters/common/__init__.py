@@ -7,7 +7,7 @@
 - `hinges`: a rod's start geometry check, the hinge frames and angles of every rod
   (`HingeFrames`) and the rod-length error observation;
 - `contacts`: the per-shape sqrt(e), sqrt(mu) whose pair product is the scene's e, mu (wall
-  points and normals are the scene's own arrays, `scene.wall_set`);
+  points and normals are the scene's own arrays, `scene.part(Walls)`);
 - `sph_lattice`: the fluid and wall particle lattices of an SPH fluid block, its gravity in the
   plane and its hydrostatic start densities.
 """

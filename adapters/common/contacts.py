@@ -1,5 +1,5 @@
 """Contact materials in the form engines take. (Wall points and normals need no translation:
-`scene.wall_set.point` / `.normal` are the (n_walls, 3) arrays every engine reads.)"""
+`scene.part(Walls).point` / `.normal` are the (n_walls, 3) arrays every engine reads.)"""
 from __future__ import annotations
 
 import math

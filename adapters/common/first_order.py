@@ -7,8 +7,9 @@ from refsim.integrators import INTEGRATORS
 from refsim.integrators.spec import spec_name
 from refsim.models.advection import AffineField
 from refsim.models.surface_sampling import SphereSampling
-from refsim.scene.surface_sampling import surface_sampling_of
-from refsim.scene.velocity_field import velocity_field_of
+from refsim.scene import Particles
+from refsim.scene.surface_sampling import SurfaceSampling
+from refsim.scene.velocity_field import VelocityField
 
 # offered on affine fields; "rk2" (Ralston) is left out of the matrix: on a linear field
 # every two-stage second-order tableau has the same R(z) = 1 + z + z^2/2 as midpoint and Heun
@@ -34,19 +35,19 @@ def first_order_reason(integrator: str, offered) -> str | None:
 
 def claims(scene) -> bool:
     """Particles moved by a VelocityField or sampling a SurfaceSampling surface."""
-    return velocity_field_of(scene) is not None or surface_sampling_of(scene) is not None
+    return scene.part(VelocityField) is not None or scene.part(SurfaceSampling) is not None
 
 
 def offered_for(scene) -> tuple:
-    return SAMPLING_INTEGRATORS if surface_sampling_of(scene) is not None \
+    return SAMPLING_INTEGRATORS if scene.part(SurfaceSampling) is not None \
         else FIELD_INTEGRATORS
 
 
 def scene_reason(scene, who: str) -> str | None:
     """Reasons a first-order scene is refused whatever the stepper (shared with taichi)."""
-    if scene.particles is None or len(scene.particles) == 0:
+    if scene.part(Particles) is None:
         return f"{who} first-order group: the scene needs particles to move"
-    if velocity_field_of(scene) is not None and surface_sampling_of(scene) is not None:
+    if scene.part(VelocityField) is not None and scene.part(SurfaceSampling) is not None:
         return f"{who} first-order group: one of VelocityField and SurfaceSampling, not both"
     if any(scene.gravity) or scene.linear_drag > 0:
         return (f"{who} first-order group: massless particles moved by their field only "
@@ -56,15 +57,15 @@ def scene_reason(scene, who: str) -> str | None:
 
 def make_system(scene):
     """The first-order system of the scene (AffineField or SphereSampling)."""
-    field = velocity_field_of(scene)
+    field = scene.part(VelocityField)
     if field is not None:
         return AffineField(field.matrix(), field.centre)
-    part = surface_sampling_of(scene)
+    part = scene.part(SurfaceSampling)
     return SphereSampling(part.radius, part.centre, part.sigma, part.alpha)
 
 
 def model_text(scene) -> str:
-    field = velocity_field_of(scene)
+    field = scene.part(VelocityField)
     if field is None:
         return ("Witkin-Heckbert: u_i = -P_i grad_{p_i} E_i, E_ij = alpha exp(-|p_i - p_j|^2 / "
                 "(2 sigma^2)), sigma fixed; projected onto the sphere after every step")

@@ -8,6 +8,7 @@ import numpy as np
 from refsim.integrators import INTEGRATORS
 from refsim.integrators.spec import spec_name
 from refsim.models.grid_pde import MODELS, coefficient_reason
+from refsim.scene import Grid
 
 # heat equation u' = D lap u (first order): FTCS is explicit Euler; RK tableaux on the method
 # of lines; the theta-methods by a sparse solve
@@ -25,17 +26,17 @@ SECOND_ORDER_IMPLICIT = ("implicit_euler", "implicit_midpoint")
 
 def claims(scene) -> bool:
     """One grid carrying the heat or the wave equation, and nothing else that moves."""
-    return bool(scene.grids) and any(g.model in MODELS for g in scene.grids)
+    return bool(scene.parts_of(Grid)) and any(g.model in MODELS for g in scene.parts_of(Grid))
 
 
 def scene_reason(scene, who: str) -> str | None:
     """Reasons a grid scene is refused whatever the stepper."""
-    if len(scene.grids) != 1:
-        return f"{who} finite differences: one grid per scene, got {len(scene.grids)}"
+    if len(scene.parts_of(Grid)) != 1:
+        return f"{who} finite differences: one grid per scene, got {len(scene.parts_of(Grid))}"
     if scene.part_kinds() != {"grids"}:
         others = sorted(scene.part_kinds() - {"grids"})
         return f"{who} finite differences: a grid alone, got also {', '.join(others)}"
-    grid = scene.grids[0]
+    grid = scene.part(Grid)
     reason = coefficient_reason(grid)
     if reason:
         return f"{who} finite differences: {reason}"
@@ -80,6 +81,12 @@ def field_name(grid) -> str:
     return "u" if "u" in grid.fields else next(iter(grid.fields))
 
 
+def grid_refusal_sentence(engine: str, what: str) -> str:
+    """The `refusals["grids"]` sentence of an engine without a grid/PDE solver."""
+    return (f"{engine} has no finite-difference grid solver ({what}); the heat, wave and "
+            "Poisson grids run on refsim and taichi")
+
+
 def grid_refusal(engine: str, what: str):
     """A group for an engine without a grid/PDE solver: it claims every grid scene (heat, wave,
     Poisson) only to refuse it with the reason (adapters/common/refusing_group.py)."""
@@ -87,7 +94,7 @@ def grid_refusal(engine: str, what: str):
     return refusing_group(
         f"{engine} has no finite-difference grid solver ({what}); the heat, wave and Poisson "
         "grids run on refsim and taichi", name="grid_refused",
-        claims=lambda scene: bool(scene.grids))
+        claims=lambda scene: bool(scene.parts_of(Grid)))
 
 
 def evolution_group(heat_sim, wave_sim, supports):
@@ -95,8 +102,8 @@ def evolution_group(heat_sim, wave_sim, supports):
     diffusion grids, `wave_sim(...)` for wave grids (refsim and taichi declare the same)."""
     from refsim.engine import ModelGroup
 
-    def build(engine, scene, dt, integrator, variant):
-        grid = scene.grids[0]
+    def build(engine, scene, dt, integrator, formulation):
+        grid = scene.part(Grid)
         return (heat_sim if grid.model == "diffusion" else wave_sim)(grid, dt, integrator)
     return ModelGroup(name="grid_evolution", build=build, claims=claims,
                       parts=frozenset({"grids"}), features=frozenset({"grid", "diffusion",

@@ -1,7 +1,7 @@
 """Rods on hinges, translated once for every engine: the start-state check, the hinge frames and
 angles of the rods, their Cartesian state, and the rod-length error observation.
 
-A rod (row k of `scene.joint_set`) holds body `body[k]` at `length[k]` from a fixed
+A rod (row k of the scene's `Joints` part) holds body `body[k]` at `length[k]` from a fixed
 `anchor[k]`, turning about `axis[k]`. Its hinge frame (refsim.models.joints.hinge_frame) is d,
 the direction of gravity's component in the hinge plane (theta = 0), and s = d x axis (theta
 grows towards s)."""
@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from refsim.models.joints import cartesian_to_hinge, hinge_frame, hinge_to_cartesian
+from refsim.scene import Joints, Particles
 
 ROD_START_RTOL = 1e-9  # a start state this far (relative) off the rod's circle is refused
 
@@ -21,8 +22,8 @@ def rod_start_refusal(scene, who: str) -> str | None:
     distance L from the anchor, perpendicular to the axis: to ROD_START_RTOL L) or moves off it
     (velocity not w axis x r, w = (r x v) . axis / L^2: to ROD_START_RTOL max(|v|, 1)), else
     None: an engine with a revolute joint cannot hold that state."""
-    joints = scene.joint_set
-    r0, v0 = scene.positions[joints.body] - joints.anchor, scene.velocities[joints.body]
+    joints, bodies = scene.part(Joints), scene.part(Particles)
+    r0, v0 = bodies.position[joints.body] - joints.anchor, bodies.velocity[joints.body]
     distance = np.linalg.norm(r0, axis=1)
     tol = ROD_START_RTOL * joints.length
     off_circle = (np.abs(distance - joints.length) > tol) | \
@@ -58,7 +59,7 @@ class HingeFrames:
 
     @classmethod
     def from_scene(cls, scene) -> "HingeFrames":
-        joints = scene.joint_set
+        joints = scene.part(Joints)
         frames = [hinge_frame(axis, scene.gravity) for axis in joints.axis]
         return cls(bodies=joints.body, anchor=joints.anchor, length=joints.length,
                    d=np.array([f[0] for f in frames]).reshape(-1, 3),
@@ -88,7 +89,7 @@ def rod_length_errors(scene, x) -> np.ndarray:
     """|x_body - anchor| - L per rod (m), x (n_bodies, 3). Each rod's norm is taken on its own
     3-vector (np.linalg.norm of one row: the bits engines have always observed; a norm along
     axis 1 may sum in another order)."""
-    joints = scene.joint_set
+    joints = scene.part(Joints)
     return np.array([np.linalg.norm(x[body] - anchor) - length
                      for body, anchor, length in zip(joints.body, joints.anchor, joints.length)],
                     dtype=float)

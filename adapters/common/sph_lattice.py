@@ -1,4 +1,4 @@
-"""An SPH fluid block (scene.fluid) as particles: the fluid lattice, the tank's wall particles,
+"""An SPH fluid block (the scene's FluidBlock part) as particles: the fluid lattice, the tank's wall particles,
 gravity in the fluid's plane and the hydrostatic start densities. Every engine with SPH starts
 from these, so all start from the same bits."""
 from __future__ import annotations

@@ -10,17 +10,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsim.scene import SpringNetwork
+
 NETWORK_INTEGRATORS = ("symplectic_euler", "velocity_verlet", "rk4", "baraff_witkin")
 
 
 def claims(scene) -> bool:
-    return bool(scene.networks)
+    return bool(scene.parts_of(SpringNetwork))
 
 
 def scene_reason(scene, who: str) -> str | None:
     """Reasons a network scene is refused whatever the stepper: one network, nothing else."""
-    if len(scene.networks) != 1:
-        return f"{who} spring networks: one network per scene, got {len(scene.networks)}"
+    if len(scene.parts_of(SpringNetwork)) != 1:
+        return f"{who} spring networks: one network per scene, got {len(scene.parts_of(SpringNetwork))}"
     others = scene.part_kinds() - {"networks"}
     if others:
         return f"{who} spring networks: a network alone, got also {', '.join(sorted(others))}"
@@ -38,7 +40,7 @@ def solve_formulations(scene) -> tuple:
     (direct) and "cg" where the in-house step solves sparsely (3 n_free >= SPARSE_MIN, so the
     engines' rows pair up), else "" alone (a dense solve: CG would change nothing)."""
     from refsim.integrators.implicit import SPARSE_MIN
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     return ("", "cg") if 3 * (len(net) - len(net.pinned)) >= SPARSE_MIN else ("",)
 
 

@@ -31,6 +31,7 @@ from refsim.engine import Engine, Sim
 from refsim.integrators import EULER, HEUN, ExplicitRK, Tableau
 from refsim.integrators.first_order import FirstOrderRK, FirstOrderStepper
 from refsim.scene.gravity_pairs import GravityPairs
+from refsim.scene import Joints, RigidBodies, SpringNetwork, Springs
 from refsim.scene.pivots import RigidPivots
 
 PREFIX = "planted_"
@@ -58,8 +59,13 @@ def _unreachable(defect: str, sim, what: str):
 # ---------------------------------------------------------------------------------------------
 # Scene defects (one field of the frozen scene; the scene itself when there is nothing to change)
 # ---------------------------------------------------------------------------------------------
-def _rebuilt(scene, changes: dict):
-    return replace(scene, **changes) if changes else scene
+def _rebuilt(scene, changes: dict, change_part=None):
+    """The scene with `changes` to its settings and every part p replaced by change_part(p)
+    (the part itself where nothing changes); the scene itself when nothing changed."""
+    parts = tuple(change_part(p) for p in scene.parts) if change_part else scene.parts
+    if not changes and all(a is b for a, b in zip(parts, scene.parts)):
+        return scene
+    return replace(scene, parts=parts, **changes)
 
 
 def stronger_gravity(scene):
@@ -67,40 +73,40 @@ def stronger_gravity(scene):
     changes = {}
     if any(scene.gravity):
         changes["gravity"] = tuple(GRAVITY_FACTOR * float(g) for g in scene.gravity)
-    if any(isinstance(p, GravityPairs) for p in scene.extra):
-        changes["extra"] = tuple(replace(p, G=p.G * GRAVITY_FACTOR) if isinstance(
-            p, GravityPairs) else p for p in scene.extra)
-    return _rebuilt(scene, changes)
+    return _rebuilt(scene, changes, lambda p: replace(p, G=p.G * GRAVITY_FACTOR)
+                    if isinstance(p, GravityPairs) else p)
 
 
-def _springs_and_networks(scene, spring_fields: dict, network_fields: Callable):
-    """Every Spring rebuilt with `spring_fields` (field -> function of the old value), every
-    SpringNetwork with `network_fields(net)` (a dict of new values)."""
-    changes = {}
-    if scene.springs:
-        changes["springs"] = tuple(replace(s, **{k: f(getattr(s, k)) for k, f in
-                                                 spring_fields.items()}) for s in scene.springs)
-    if scene.networks:
-        changes["networks"] = tuple(replace(n, **network_fields(n)) for n in scene.networks)
-    return changes
+def _springs_and_networks(spring_fields: dict, network_fields: Callable):
+    """A part change: every Spring rebuilt with `spring_fields` (field -> function of the old
+    value), every SpringNetwork with `network_fields(net)` (a dict of new values)."""
+    def change(part):
+        if isinstance(part, Springs):
+            return Springs.of(tuple(replace(s, **{k: f(getattr(s, k)) for k, f in
+                                                  spring_fields.items()})
+                                    for s in part.to_records()))
+        if isinstance(part, SpringNetwork):
+            return replace(part, **network_fields(part))
+        return part
+    return change
 
 
 def stiffer_springs(scene):
     """Every spring stiffness x STIFFNESS_FACTOR: springs, network stretch edges, network
     hinge and dihedral (bending) springs."""
     k = STIFFNESS_FACTOR
-    return _rebuilt(scene, _springs_and_networks(
-        scene, {"stiffness": lambda s: s * k},
+    return _rebuilt(scene, {}, _springs_and_networks(
+        {"stiffness": lambda s: s * k},
         lambda n: {"stiffness": n.stiffness * k, "hinge_stiffness": n.hinge_stiffness * k,
                    "dihedral_stiffness": n.dihedral_stiffness * k}))
 
 
 def undamped_springs(scene):
     """Spring damping dropped (springs and network edges); air drag is kept."""
-    damped = any(s.damping > 0 for s in scene.springs) or any(
-        np.any(n.damping > 0) for n in scene.networks)
-    return _rebuilt(scene, _springs_and_networks(
-        scene, {"damping": lambda c: 0.0}, lambda n: {"damping": 0.0}) if damped else {})
+    damped = any(np.any(p.damping > 0) for p in scene.parts
+                 if isinstance(p, (Springs, SpringNetwork)))
+    return _rebuilt(scene, {}, _springs_and_networks(
+        {"damping": lambda c: 0.0}, lambda n: {"damping": 0.0})) if damped else scene
 
 
 def longer_links(scene):
@@ -108,14 +114,17 @@ def longer_links(scene):
     (joints) and the pivot arm of pivoted rigid bodies (the anchor moves with the body point,
     so the body still starts on its pivot)."""
     s = LENGTH_FACTOR
-    changes = _springs_and_networks(scene, {"rest_length": lambda r: r * s},
-                                    lambda n: {"rest_length": n.rest_length * s})
-    if scene.joints:
-        changes["joints"] = tuple(replace(j, length=j.length * s) for j in scene.joints)
-    if any(isinstance(p, RigidPivots) for p in scene.extra):
-        changes["extra"] = tuple(_longer_pivots(p, scene.rigid, s) if isinstance(
-            p, RigidPivots) else p for p in scene.extra)
-    return _rebuilt(scene, changes)
+    links = _springs_and_networks({"rest_length": lambda r: r * s},
+                                  lambda n: {"rest_length": n.rest_length * s})
+    rigid = scene.part(RigidBodies)
+
+    def change(part):
+        if isinstance(part, Joints):
+            return Joints.of(tuple(replace(j, length=j.length * s) for j in part.to_records()))
+        if isinstance(part, RigidPivots):
+            return _longer_pivots(part, rigid, s)
+        return links(part)
+    return _rebuilt(scene, {}, change)
 
 
 def _longer_pivots(pivots, rigid, factor):
@@ -317,18 +326,16 @@ class DefectEngine(Engine):
     def supports(self, scene, integrator=None):
         return self.inner.supports(scene, integrator)
 
-    def variants(self, scene):
-        return self.inner.variants(scene)
-
     def formulations(self, scene):
         return self.inner.formulations(scene)
 
     def matrix_formulations(self, scene):
         return self.inner.matrix_formulations(scene)
 
-    def build(self, scene, dt, integrator, variant=""):
+    def build(self, scene, dt, integrator, formulation=""):
         d = self.defect
-        sim = self.inner.build(d.scene(scene) if d.scene else scene, dt, integrator, variant)
+        sim = self.inner.build(d.scene(scene) if d.scene else scene, dt, integrator,
+                               formulation)
         if d.swap is not None:
             d.swap(sim, integrator)
         for velocity_only in d.check:
@@ -340,8 +347,7 @@ class DefectEngine(Engine):
 
 def _engine_class(defect: Defect) -> type:
     inner = registry.entry("engine", INNER).load()
-    attrs = {k: getattr(inner, k) for k in ("parts", "capabilities", "dims", "integrators",
-                                            "package")}
+    attrs = {k: getattr(inner, k) for k in ("dims", "integrators", "package", "refusals")}
     return type(f"Planted_{defect.name.replace('.', '_')}", (DefectEngine,),
                 {**attrs, "name": defect.engine, "defect": defect, "__module__": __name__})
 

@@ -84,8 +84,8 @@ class RigidShapes(ArrayPart):
 
 
 def shapes_of(scene) -> RigidShapes | None:
-    """The scene's RigidShapes part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, RigidShapes)), None)
+    """TRANSITION (removed with refsim/scene/_legacy.py): scene.part(RigidShapes)."""
+    return scene.part(RigidShapes)
 
 
 def check_shape_bodies(shapes: RigidShapes, rigid) -> None:
@@ -101,14 +101,16 @@ def rolling_scene_refusal(scene, who: str) -> str | None:
     needs one shape, the walls a contact model, and the motion must stay in the x-z plane
     (gravity, positions, velocities, wall normals at y = 0, spins about y, each shape's axis
     and body y along world y)."""
-    rigid, shapes = scene.rigid, shapes_of(scene)
+    from .rigid import RigidBodies
+    from .walls import Walls
+    rigid, shapes, walls = scene.part(RigidBodies), scene.part(RigidShapes), scene.part(Walls)
     try:
         check_shape_bodies(shapes, rigid)
     except ValueError as exc:
         return f"{who}: {exc}"
     if len(shapes) != len(rigid):
         return f"{who}: every rigid body needs a shape (RigidShapes) in a rolling scene"
-    if scene.contact is None or not len(scene.wall_set):
+    if scene.contact is None or walls is None:
         return f"{who}: a rolling scene needs walls and a contact model (friction)"
     q = rigid.orientation
     w, u = q[:, :1], q[:, 1:]
@@ -116,8 +118,8 @@ def rolling_scene_refusal(scene, who: str) -> str | None:
     t = 2.0 * np.cross(u, np.broadcast_to(y, u.shape))
     axis = y + w * t + np.cross(u, t)  # R(q) y
     off_plane = (scene.gravity[1], rigid.position[:, 1], rigid.velocity[:, 1],
-                 rigid.angular_velocity[:, [0, 2]], scene.wall_set.normal[:, 1],
-                 scene.wall_set.point[:, 1], axis[:, [0, 2]])
+                 rigid.angular_velocity[:, [0, 2]], walls.normal[:, 1],
+                 walls.point[:, 1], axis[:, [0, 2]])
     if any(np.any(np.abs(a) > AXIS_TOL) for a in off_plane):
         return (f"{who}: the rolling group runs planar motion only (x-z plane: y components "
                 f"0, spins and each body's y axis along world y)")

@@ -15,8 +15,8 @@ this package, one module each (particles, springs, joints, walls, fluid, rigid, 
 grids, gravity_pairs, lennard_jones, flocking, emitter, velocity_field, surface_sampling, pivots,
 rigid_shapes), and a plugin's part of a new kind is a new file, not an edit here. A part class
 sets `many = True` where a scene may hold several (networks, meshes, grids); otherwise at most one
-per class. None entries and array parts of length 0 are dropped (a case may write
-`parts=(particles, springs if k > 0 else None)`).
+per class. None entries and array parts of length 0 are dropped and nested tuples flattened (a
+case may write `parts=(particles, springs if k > 0 else None, networks)`).
 
 Scene-wide settings are fields: gravity, linear_drag, contact (the contact model between
 spheres and walls), dim, planar, meta.
@@ -50,12 +50,14 @@ def _rank(part) -> int:
 
 
 def _checked_parts(value) -> tuple:
-    """The parts as given (flattened one level, None and empty array parts dropped), each a
+    """The parts as given (nested tuples flattened, None and empty array parts dropped), each a
     frozen dataclass with a `kind` and features(), at most one per class unless `many`, in a
     stable order: the core kinds in PART_KINDS order, then the others as given."""
-    items = (value,) if not isinstance(value, (tuple, list)) else tuple(value)
+    def flat(v):
+        for item in (v if isinstance(v, (tuple, list)) else (v,)):
+            yield from (flat(item) if isinstance(item, (tuple, list)) else (item,))
     out = []
-    for item in items:
+    for item in flat(value):
         if item is None or (hasattr(item, "__len__") and len(item) == 0):
             continue
         kind = getattr(item, "kind", None)

@@ -27,14 +27,13 @@ def kepler(e, masses=(0.75, 0.25), anomaly=np.pi / 2):
     rel_v = np.sqrt(M / p) * np.array([-np.sin(anomaly), e + np.cos(anomaly), 0.0])
     x = np.array([-m[1] / M * rel_x, m[0] / M * rel_x])
     v = np.array([-m[1] / M * rel_v, m[0] / M * rel_v])
-    return Scene(bodies=Particles(m, x, v), extra=(GravityPairs(G=1.0, softening=0.0),))
+    return Scene(parts=(Particles(m, x, v), GravityPairs(G=1.0, softening=0.0)))
 
 
 def figure_eight():
     x1 = np.array([0.97000436, -0.24308753, 0.0])
     v3 = np.array([-0.93240737, -0.86473146, 0.0])
-    return Scene(bodies=Particles(np.ones(3), [x1, -x1, np.zeros(3)], [-v3 / 2, -v3 / 2, v3]),
-                 extra=(GravityPairs(G=1.0, softening=0.0),))
+    return Scene(parts=(Particles(np.ones(3), [x1, -x1, np.zeros(3)], [-v3 / 2, -v3 / 2, v3]), GravityPairs(G=1.0, softening=0.0)))
 
 
 class PairSystem:
@@ -50,9 +49,9 @@ class PairSystem:
 
 
 def in_house(scene, integrator, dt, steps):
-    stepper, system = get_integrator(integrator), PairSystem(scene.masses)
-    state = stepper.start(system, 0.0, scene.positions.ravel().copy(),
-                          scene.velocities.ravel().copy(), dt)
+    stepper, system = get_integrator(integrator), PairSystem(scene.part(Particles).mass)
+    state = stepper.start(system, 0.0, scene.part(Particles).position.ravel().copy(),
+                          scene.part(Particles).velocity.ravel().copy(), dt)
     _, state = stepper.advance(system, 0.0, state, dt, steps)
     x, v = stepper.output(system, steps * dt, state, dt)
     return x.reshape(-1, 3), v.reshape(-1, 3)
@@ -68,7 +67,7 @@ def run(engine, scene, integrator, variant, period, steps):
 def return_error(engine, scene, integrator, variant, period, steps):
     """max |x(T) - x(0)|: the exact orbit returns to its start after one period."""
     return np.abs(run(engine, scene, integrator, variant, period, steps)["x"]
-                  - scene.positions).max()
+                  - scene.part(Particles).position).max()
 
 
 def fitted_orders(errors):
@@ -86,7 +85,7 @@ def angular_momentum(obs, m):
 def energy_and_l(engine, scene, integrator, variant, steps, periods=5):
     """Step one at a time over `periods` periods of 2 pi (Kepler, a = 1, G M = 1) at
     h = 2 pi / steps: (max |dE| in each period, max |dL| over the run)."""
-    m = scene.masses
+    m = scene.part(Particles).mass
     sim = engine.build(scene, TWO_PI / steps, integrator, variant)
     o0 = sim.observe()
     de, dl = [], []

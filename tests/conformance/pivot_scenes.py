@@ -42,8 +42,7 @@ def pivoted(m, inertia, point, q0, w_body0=(0.0, 0.0, 0.0), anchor=(0.0, 0.0, 0.
     rigid = RigidBodies(mass=[m], inertia=[inertia], position=[x0], orientation=[q0],
                         velocity=[np.cross(R @ w_body0, x0 - anchor)],
                         angular_velocity=[R @ w_body0])
-    return Scene(rigid=rigid, gravity=(0.0, 0.0, -G), planar=planar,
-                 extra=(RigidPivots(body=[0], body_point=[point], anchor=[anchor]),))
+    return Scene(parts=(rigid, RigidPivots(body=[0], body_point=[point], anchor=[anchor])), gravity=(0.0, 0.0, -G), planar=planar)
 
 
 def top(spin=10.0, tilt=0.3, planar=False):
@@ -81,7 +80,7 @@ def angle_of_centre(obs):
 
 def pivot_terms(scene):
     """(m, I_p about the pivot (body frame), body point p, gravity)."""
-    r, pv = scene.rigid, scene.extra[0]
+    r, pv = scene.part(RigidBodies), scene.part(RigidPivots)
     m, p = r.mass[0], pv.body_point[0]
     return m, r.inertia[0] + m * (p @ p * np.eye(3) - np.outer(p, p)), p, \
         np.asarray(scene.gravity)
@@ -100,8 +99,8 @@ def reference(scene, t):
     def rhs(_, y):
         return np.concatenate([0.5 * qmul(y[:4], np.concatenate([[0.0], y[4:]])),
                                body_rate(scene, y[:4], y[4:])])
-    q0 = scene.rigid.orientation[0]
-    y0 = np.concatenate([q0, rot(q0).T @ scene.rigid.angular_velocity[0]])
+    q0 = scene.part(RigidBodies).orientation[0]
+    y0 = np.concatenate([q0, rot(q0).T @ scene.part(RigidBodies).angular_velocity[0]])
     y = solve_ivp(rhs, (0.0, t), y0, method="DOP853", rtol=1e-12, atol=1e-14).y[:, -1]
     q = y[:4] / np.linalg.norm(y[:4])
     return {"q": q, "w": rot(q) @ y[4:]}
@@ -116,8 +115,8 @@ def top_reference(t):
 def replica(scene, h, steps):
     """The model's symplectic Euler on the pivot: w_body += h rate(q_k, w_k), then
     q <- normalise(q (x) exp(h w_body / 2)) (body-frame rate on the right)."""
-    q = scene.rigid.orientation[0].copy()
-    wb = rot(q).T @ scene.rigid.angular_velocity[0]
+    q = scene.part(RigidBodies).orientation[0].copy()
+    wb = rot(q).T @ scene.part(RigidBodies).angular_velocity[0]
     for _ in range(steps):
         wb = wb + h * body_rate(scene, q, wb)
         half = 0.5 * h * np.linalg.norm(wb)

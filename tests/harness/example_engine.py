@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.engine import Engine, Sim
+from refsim.engine import Engine, ModelGroup, Sim
+from refsim.scene import Particles, Springs
 
 ORDERS = {"symplectic_euler": 1, "velocity_verlet": 2}
 
@@ -21,16 +22,16 @@ ORDERS = {"symplectic_euler": 1, "velocity_verlet": 2}
 class PointMassSim(Sim):
     def __init__(self, scene, dt, integrator):
         self.dt, self.integrator, self.steps = float(dt), integrator, 0
-        self.x, self.v = scene.positions.copy(), scene.velocities.copy()
-        self.mass = scene.masses[:, None]
+        bodies = scene.part(Particles)
+        self.x, self.v = bodies.position.copy(), bodies.velocity.copy()
+        self.mass = bodies.mass[:, None]
         self.gravity = np.asarray(scene.gravity, float)
-        springs = scene.springs
-        self.body = np.array([s.body for s in springs], int)
-        self.other = np.array([-1 if s.other is None else s.other for s in springs], int)
-        self.anchor = np.array([s.anchor for s in springs], float).reshape(-1, 3)
-        self.k = np.array([s.stiffness for s in springs], float)[:, None]
-        self.rest = np.array([s.rest_length for s in springs], float)[:, None]
-        self.c = np.array([s.damping for s in springs], float)[:, None]
+        springs = scene.part(Springs) or Springs.of(())  # other: -1 where anchored
+        self.body, self.other = springs.body, springs.other
+        self.anchor = springs.anchor
+        self.k = springs.stiffness[:, None]
+        self.rest = springs.rest_length[:, None]
+        self.c = springs.damping[:, None]
         self.damped = bool(np.any(self.c > 0))
         self.a = self.accel(self.x, self.v)
 
@@ -85,18 +86,20 @@ class PointMassSim(Sim):
                 "verlet_velocity_forces": "closing half kick redone once with the new v"}
 
 
+def build_point_masses(engine, scene, dt, integrator, formulation):
+    """Called by Engine.build after dt, formulation and support are checked."""
+    return engine.sim_class(scene, dt, integrator)
+
+
 class PointMassEngine(Engine):
     name = "example_point_mass"
-    capabilities = frozenset({"gravity", "springs"})
     dims = (3,)
     integrators = tuple(ORDERS)
     sim_class = PointMassSim
+    groups = (ModelGroup(name="point_masses", build=build_point_masses,
+                         claims=lambda scene: scene.part(Particles) is not None,
+                         parts=frozenset({"particles", "springs"}),
+                         features=frozenset({"gravity", "springs"})),)
 
     def version(self) -> str:
         return "1.0"
-
-    def build(self, scene, dt, integrator, variant=""):
-        reason = self.supports(scene, integrator)
-        if reason:
-            raise ValueError(reason)
-        return self.sim_class(scene, dt, integrator)

@@ -10,10 +10,10 @@ from dataclasses import dataclass
 import pytest
 
 from refsim.engine import discover_groups
-from refsim.scene import Body, Scene
+from refsim.scene import Body, Particles, Scene
 
 ENGINE = '''
-from refsim.engine import Engine, Sim
+from refsim.engine import Engine, ModelGroup, Sim
 
 
 class ToySim(Sim):
@@ -29,12 +29,11 @@ class ToySim(Sim):
 
 class ToyEngine(Engine):
     name = "toy_groups"
-    parts = frozenset({"particles"})
-    capabilities = frozenset({"gravity"})
     integrators = ("symplectic_euler",)
-
-    def _build(self, scene, dt, integrator, variant):
-        return ToySim(dt)
+    refusals = {"ropes": "toy_groups has no ropes (a toy engine: particles and beads only)"}
+    groups = (ModelGroup(name="particles", claims=lambda scene: "particles" in scene.part_kinds(),
+                         parts=frozenset({"particles"}), features=frozenset({"gravity"}),
+                         build=lambda engine, scene, dt, integrator, formulation: ToySim(dt)),)
 '''
 
 GROUP = '''
@@ -50,9 +49,9 @@ class CountingSim(ToySim):
 MODEL_GROUP = ModelGroup(
     name="beads", claims=lambda scene: "beads" in scene.part_kinds(),
     parts=frozenset({"beads"}), features=frozenset({"bead_forces"}),
-    integrators=("rk4",), variants=lambda engine, scene: ("", "fast"),
+    integrators=("rk4",), formulations=lambda engine, scene: ("", "fast"),
     supports=lambda engine, scene, integrator: None,
-    build=lambda engine, scene, dt, integrator, variant: CountingSim(dt))
+    build=lambda engine, scene, dt, integrator, formulation: CountingSim(dt))
 '''
 
 
@@ -88,7 +87,7 @@ def test_group_module_is_discovered(toy_engine):
 
 
 def test_claimed_scene_goes_to_the_group(toy_engine):
-    scene = Scene(extra=(Beads(3),))
+    scene = Scene(parts=(Beads(3),))
     assert scene.part_kinds() == {"beads"} and scene.features() == {"bead_forces"}
     assert toy_engine.supports(scene, "rk4") is None
     assert toy_engine.supports(scene, "symplectic_euler") == \
@@ -97,9 +96,10 @@ def test_claimed_scene_goes_to_the_group(toy_engine):
     assert getattr(toy_engine.build(scene, 0.1, "rk4", "fast"), "built_by_group", False)
 
 
-def test_other_scenes_stay_with_the_engine(toy_engine):
-    scene = Scene(bodies=(Body(1.0, (0, 0, 0)),), gravity=(0, 0, -9.81))
-    assert toy_engine.group_for(scene) is None
+def test_groups_declared_in_the_class_come_before_the_found_ones(toy_engine):
+    scene = Scene(parts=(Particles.of((Body(1.0, (0, 0, 0)),)),), gravity=(0, 0, -9.81))
+    assert [g.name for g in toy_engine.model_groups()] == ["particles", "beads"]
+    assert toy_engine.group_for(scene).name == "particles"
     assert toy_engine.supports(scene, "symplectic_euler") is None
     assert toy_engine.formulations(scene) == ("",)
     sim = toy_engine.build(scene, 0.1, "symplectic_euler")
@@ -117,24 +117,42 @@ class Ropes:
         return set()
 
 
-def test_engine_refuses_a_part_kind_no_group_claims(toy_engine):
-    scene = Scene(extra=(Ropes(),))
+@dataclass(frozen=True)
+class Knots:
+    kind = "knots"
+    moving = True
+
+    def features(self):
+        return {"tangles"}
+
+
+def test_engine_refuses_from_its_table_a_scene_no_group_claims(toy_engine):
+    scene = Scene(parts=(Ropes(),))
     assert toy_engine.group_for(scene) is None
-    assert toy_engine.supports(scene, "symplectic_euler") == "toy_groups does not simulate ropes"
-    with pytest.raises(ValueError, match="does not simulate ropes"):
+    reason = "toy_groups has no ropes (a toy engine: particles and beads only)"
+    assert toy_engine.supports(scene, "symplectic_euler") == reason
+    with pytest.raises(ValueError, match=r"has no ropes \(a toy engine"):
         toy_engine.build(scene, 0.1, "symplectic_euler")
+    # a kind outside the table: the generic sentence names the kinds and features
+    assert toy_engine.supports(Scene(parts=(Knots(),), gravity=(0, 0, -1)), None) == \
+        "toy_groups has no model group for a scene of knots with gravity, tangles"
+
+
+def test_a_group_refuses_what_it_does_not_simulate(toy_engine):
+    scene = Scene(parts=(Particles.of((Body(1.0, (0, 0, 0)),)),), linear_drag=0.5)
+    assert toy_engine.supports(scene, "symplectic_euler") == "toy_groups does not simulate drag"
 
 
 @pytest.mark.parametrize("bad, message", [
-    (object(), "must each have a `kind`"),
+    (object(), "must hold parts (each with a `kind`)"),
     (type("NoFeatures", (), {"kind": "nofeat"})(), "must define features()"),
 ])
-def test_extra_part_is_validated(bad, message):
+def test_a_plugin_part_is_validated(bad, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
-        Scene(extra=(bad,))
+        Scene(parts=(bad,))
 
 
-def test_extra_part_counts_as_a_moving_kind():
+def test_a_plugin_part_counts_as_a_moving_kind():
     with pytest.raises(ValueError, match="one kind of moving bodies"):
-        Scene(bodies=(Body(1.0, (0, 0, 0)),), extra=(Beads(2),))
-    assert Scene(extra=(Beads(2),)).moving_kind() == "beads"
+        Scene(parts=(Particles.of((Body(1.0, (0, 0, 0)),)), Beads(2)))
+    assert Scene(parts=(Beads(2),)).moving_kind() == "beads"

@@ -19,7 +19,8 @@ from refsim_adapters.planted_defects.engines import (
 from refsim.integrators import EULER, HEUN, ExplicitRK
 from refsim.run.job import Job, run_job
 from refsim.registry import get_case, get_engine, unregister
-from refsim.scene.pivots import check_on_anchor
+from refsim.scene import RigidBodies
+from refsim.scene.pivots import RigidPivots, check_on_anchor
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -108,10 +109,11 @@ def test_scene_defects_change_one_field():
 
 def test_longer_pivot_arm_keeps_the_body_on_its_pivot():
     scene = _scene("compound_pendulum", "default")
-    old, new = scene.extra[0], DEFECTS["rest_length_plus_0.5pct"].scene(scene).extra[0]
+    old = scene.part(RigidPivots)
+    new = DEFECTS["rest_length_plus_0.5pct"].scene(scene).part(RigidPivots)
     assert np.array_equal(new.body_point, old.body_point * 1.005)
     assert not np.array_equal(new.anchor, old.anchor)
-    check_on_anchor(new, scene.rigid)  # the body still starts on its (moved) pivot
+    check_on_anchor(new, scene.part(RigidBodies))  # the body still starts on its (moved) pivot
     ref, sim = _sims("rest_length_plus_0.5pct", "compound_pendulum", "default", "rk4",
                      "quat_exp")
     assert np.allclose(ref.observe()["x"], sim.observe()["x"], rtol=0, atol=1e-12)

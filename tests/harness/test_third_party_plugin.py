@@ -40,15 +40,16 @@ import math
 import numpy as np
 
 from refsim.case import Case, Param
-from refsim.engine import Engine, IntegratorInfo, Sim
-from refsim.scene import Body, Scene
+from refsim.engine import Engine, IntegratorInfo, ModelGroup, Sim
+from refsim.scene import Body, Particles, Scene
 
 
 class ToySim(Sim):
     def __init__(self, scene, dt):
         self.dt, self.steps = dt, 0
-        self.m, self.b = scene.masses[:, None], scene.linear_drag
-        self.x, self.v = scene.positions.copy(), scene.velocities.copy()
+        bodies = scene.part(Particles)
+        self.m, self.b = bodies.mass[:, None], scene.linear_drag
+        self.x, self.v = bodies.position.copy(), bodies.velocity.copy()
 
     def _step_impl(self, n):
         for _ in range(n):
@@ -64,12 +65,11 @@ class ToySim(Sim):
 
 class ToyEngine(Engine):
     name = "toy_euler"
-    parts = frozenset({"particles"})
-    capabilities = frozenset({"drag"})
     dims, integrators = (3,), ("symplectic_euler",)
-
-    def _build(self, scene, dt, integrator, variant):
-        return ToySim(scene, dt)
+    groups = (ModelGroup(name="particles", claims=lambda scene: "particles" in scene.part_kinds(),
+                         parts=frozenset({"particles"}), features=frozenset({"drag"}),
+                         build=lambda engine, scene, dt, integrator, formulation:
+                         ToySim(scene, dt)),)
 
 
 class DragCase(Case):
@@ -81,8 +81,9 @@ class DragCase(Case):
               "v0": Param(2.0, -1e3, 1e3, "m/s")}
 
     def scene(self, p):
-        return Scene(bodies=(Body(mass=p["mass"], position=(0, 0, 0),
-                                  velocity=(p["v0"], 0, 0)),), linear_drag=p["drag"])
+        return Scene(parts=(Particles.of((Body(mass=p["mass"], position=(0, 0, 0),
+                                               velocity=(p["v0"], 0, 0)),)),),
+                     linear_drag=p["drag"])
 
     def t_end(self, p):
         return 4.0

@@ -7,7 +7,7 @@ from refsim.integrators import get_integrator
 from refsim.models import emitter as em
 from refsim.models.system import ParticleSystem
 from refsim.scene import Scene
-from refsim.scene.emitter import Emitter, emitter_of, spawn_uniforms
+from refsim.scene.emitter import Emitter, spawn_uniforms
 
 EPS = np.finfo(float).eps
 
@@ -77,7 +77,7 @@ def test_bad_emitter_parameters_name_the_field(field, value):
 
 def test_scene_finds_its_emitter():
     part = Emitter()
-    scene = Scene(extra=(part,), gravity=(0, 0, -9.81))
-    assert emitter_of(scene) is part and scene.moving_kind() == "emitter"
+    scene = Scene(parts=(part,), gravity=(0, 0, -9.81))
+    assert scene.part(Emitter) is part and scene.moving_kind() == "emitter"
     with pytest.raises(ValueError, match="formulation"):
         em.capacity(part, 0.01, "printed")

@@ -6,7 +6,7 @@ import pytest
 from refsim.models.flocking import (FlockSystem, cucker_smale_accelerations, diameter_bound,
                                     psi_integral, reynolds_accelerations, velocity_variance)
 from refsim.scene import Particles, Scene
-from refsim.scene.flocking import Flocking, flocking_of
+from refsim.scene.flocking import Flocking
 
 EPS = np.finfo(float).eps
 
@@ -92,5 +92,5 @@ def test_bad_flocking_parameters_name_the_field(field, value):
 
 def test_scene_finds_its_flocking_part():
     part = Flocking()
-    scene = Scene(bodies=Particles(mass=[1.0, 1.0], position=np.eye(2, 3)), extra=(part,))
-    assert flocking_of(scene) is part and "flocking" in scene.features()
+    scene = Scene(parts=(Particles(mass=[1.0, 1.0], position=np.eye(2, 3)), part))
+    assert scene.part(Flocking) is part and "flocking" in scene.features()

@@ -174,7 +174,7 @@ def test_velocity_verlet_energy_error_is_second_order():
 def test_pinned_nodes_never_move_and_are_observed():
     net = _network(seed=5)
     engine = get_engine("refsim")
-    sim = engine.build(Scene(networks=(net,), gravity=G, linear_drag=0.1), 2e-3, "rk4", "")
+    sim = engine.build(Scene(parts=(net,), gravity=G, linear_drag=0.1), 2e-3, "rk4", "")
     sim.step(50)
     out = sim.observe()
     assert out["x"].shape == (12, 3)

@@ -95,7 +95,7 @@ def _pivot_scene(pivoted=(0, 1)):
     k = len(pivoted)
     pivots = RigidPivots(body=list(pivoted), body_point=b["com_offset"][:k],
                          anchor=b["com_offset"][:k])
-    return Scene(rigid=rigid, extra=(pivots,), gravity=tuple(G))
+    return Scene(parts=(rigid, pivots), gravity=tuple(G))
 
 
 def test_pivots_group_claims_supports_and_declares_not_symplectic():

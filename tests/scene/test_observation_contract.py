@@ -7,6 +7,7 @@ from refsim.observation import OBSERVABLES, check_observation, contract_markdown
 from refsim.registry import case_names, get_case, get_engine
 from refsim.scene import (PART_KINDS, Body, ContactModel, FluidBlock, Grid, Joint, Material,
                           RigidBodies, Scene, SpringNetwork, TriangleMesh, Wall)
+from refsim.scene import Joints, Particles, Walls
 
 ENGINE = get_engine("refsim")
 
@@ -29,7 +30,7 @@ def test_the_inhouse_engine_meets_the_contract_on_every_case(name, variant, form
     case = get_case(name)
     p = case.variant_params(variant)
     scene = case.scene(p)
-    integrator = "velocity_verlet" if scene.fluid is not None else "symplectic_euler"
+    integrator = "velocity_verlet" if scene.part(FluidBlock) is not None else "symplectic_euler"
     if ENGINE.supports(scene, integrator) is not None:  # a first-order scene: its own steppers
         integrator = next(i for i in ENGINE.offered_integrators(scene)
                           if ENGINE.supports(scene, i) is None)
@@ -41,17 +42,15 @@ def test_the_inhouse_engine_meets_the_contract_on_every_case(name, variant, form
 
 BALLS = (Body(1.0, (0.0, 0.0, 1.0), radius=0.1, inertia=0.004),
          Body(1.0, (1.0, 0.0, 1.0), radius=0.1, inertia=0.004))
-PENDULUM = Scene(bodies=BALLS[:1], joints=(Joint(0, (0.0, 0.0, 2.0), 1.0),),
-                 gravity=(0.0, 0.0, -9.81))
-SPHERES = Scene(bodies=BALLS, contact=ContactModel(), walls=(Wall((0, 0, 0), (0, 0, 1)),))
-TANK = Scene(fluid=FluidBlock((0.0, 0.0), (0.5, 1.0), 0.1, 2.0, 1.5), dim=2)
-RIGID = Scene(rigid=RigidBodies(mass=[1.0, 2.0], inertia=[np.eye(3)] * 2,
-                                position=np.zeros((2, 3)), orientation=[[1.0, 0, 0, 0]] * 2))
+PENDULUM = Scene(parts=(Particles.of(BALLS[:1]), Joints.of((Joint(0, (0.0, 0.0, 2.0), 1.0),))), gravity=(0.0, 0.0, -9.81))
+SPHERES = Scene(parts=(Particles.of(BALLS), Walls.of((Wall((0, 0, 0), (0, 0, 1)),))), contact=ContactModel())
+TANK = Scene(parts=(FluidBlock((0.0, 0.0), (0.5, 1.0), 0.1, 2.0, 1.5),), dim=2)
+RIGID = Scene(parts=(RigidBodies(mass=[1.0, 2.0], inertia=[np.eye(3)] * 2,
+                                position=np.zeros((2, 3)), orientation=[[1.0, 0, 0, 0]] * 2),))
 SQUARE = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
-CLOTH = Scene(networks=(SpringNetwork(SQUARE, 0.1, [[0, 1], [1, 2], [2, 3], [3, 0]], 10.0),
-                        SpringNetwork(SQUARE[:3] + 2.0, 0.1, [[0, 1], [1, 2]], 10.0)))
-PLATE = Scene(meshes=(TriangleMesh(SQUARE, [[0, 1, 2], [0, 2, 3]], Material(1e6, 0.3, 1e3)),))
-HEAT = Scene(grids=(Grid((6, 5), 0.1, "diffusion", {"T": np.ones((6, 5)),
+CLOTH = Scene(parts=(SpringNetwork(SQUARE, 0.1, [[0, 1], [1, 2], [2, 3], [3, 0]], 10.0), SpringNetwork(SQUARE[:3] + 2.0, 0.1, [[0, 1], [1, 2]], 10.0)))
+PLATE = Scene(parts=(TriangleMesh(SQUARE, [[0, 1, 2], [0, 2, 3]], Material(1e6, 0.3, 1e3)),))
+HEAT = Scene(parts=(Grid((6, 5), 0.1, "diffusion", {"T": np.ones((6, 5)),
                                                     "source": np.zeros((6, 5))}),))
 
 

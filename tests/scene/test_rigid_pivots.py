@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from refsim.scene import Scene
-from refsim.scene.pivots import RigidPivots, check_on_anchor, pivots_of
+from refsim.scene.pivots import RigidPivots, check_on_anchor
 from refsim.scene.rigid import RigidBodies
 
 
@@ -21,8 +21,8 @@ def test_pivot_on_its_anchor_is_accepted_and_found_in_the_scene():
     anchor = [[point[2] * np.sin(angle), 0.0, point[2] * np.cos(angle)]]
     pivots = RigidPivots(body=[0], body_point=[point], anchor=anchor)
     check_on_anchor(pivots, _tilted_body(angle))
-    scene = Scene(rigid=_tilted_body(angle), extra=(pivots,))
-    assert pivots_of(scene) is pivots and scene.part_kinds() == {"rigid", "rigid_pivots"}
+    scene = Scene(parts=(_tilted_body(angle), pivots))
+    assert scene.part(RigidPivots) is pivots and scene.part_kinds() == {"rigid", "rigid_pivots"}
     assert "pivots" in scene.features() and not pivots.body.flags.writeable
 
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from refsim.scene import ContactModel, RigidBodies, Scene, Wall
-from refsim.scene.rigid_shapes import RigidShapes, rolling_scene_refusal, shapes_of
+from refsim.scene import ContactModel, RigidBodies, Scene, Wall, Walls
+from refsim.scene.rigid_shapes import RigidShapes, rolling_scene_refusal
 
 
 def _disc(**kw):
@@ -17,9 +17,8 @@ def test_valid_part_features_and_lookup():
     assert not part.radius.flags.writeable
     rigid = RigidBodies(mass=[1.0], inertia=[np.eye(3)], position=[(0, 0, 0.1)],
                         orientation=[(1, 0, 0, 0)])
-    scene = Scene(rigid=rigid, extra=(part,), walls=(Wall((0, 0, 0), (0, 0, 1)),),
-                  contact=ContactModel(0.0, 0.5), gravity=(0, 0, -9.81))
-    assert shapes_of(scene) is part and rolling_scene_refusal(scene, "x") is None
+    scene = Scene(parts=(Walls.of((Wall((0, 0, 0), (0, 0, 1)),)), rigid, part), contact=ContactModel(0.0, 0.5), gravity=(0, 0, -9.81))
+    assert scene.part(RigidShapes) is part and rolling_scene_refusal(scene, "x") is None
 
 
 @pytest.mark.parametrize("kw, field", [
@@ -42,6 +41,5 @@ def test_sphere_defaults_to_zero_half_length():
 def test_refusal_off_plane():
     rigid = RigidBodies(mass=[1.0], inertia=[np.eye(3)], position=[(0, 0.5, 0.1)],
                         orientation=[(1, 0, 0, 0)])
-    scene = Scene(rigid=rigid, extra=(_disc(),), walls=(Wall((0, 0, 0), (0, 0, 1)),),
-                  contact=ContactModel(0.0, 0.5))
+    scene = Scene(parts=(Walls.of((Wall((0, 0, 0), (0, 0, 1)),)), rigid, _disc()), contact=ContactModel(0.0, 0.5))
     assert "planar motion only" in rolling_scene_refusal(scene, "x")

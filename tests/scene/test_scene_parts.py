@@ -241,15 +241,17 @@ BALL = Body(mass=1.0, position=(0.0, 0.0, 1.0), velocity=(1.0, 0.0, 0.0), radius
 TWO = (BALL, Body(mass=3.0, position=(1.0, 0.0, 1.0)))
 
 OLD_MESSAGES = [  # today's messages, unchanged
-    (lambda: Scene(bodies=()), "scene.bodies must hold at least one body (or the scene a fluid)"),
-    (lambda: Scene(bodies=TWO, springs=(Spring(body=2, stiffness=1.0, rest_length=0.0),)),
+    (lambda: Scene(parts=(Particles.of(()),)), "scene.parts must hold at least one part with "
+     "bodies (particles, a fluid, rigid bodies, a network, a mesh, a grid or a plugin's part), "
+     "got none"),
+    (lambda: Scene(parts=(Particles.of(TWO), Springs.of((Spring(body=2, stiffness=1.0, rest_length=0.0),)))),
      "spring body index must be in [0, 1], got 2"),
-    (lambda: Scene(bodies=TWO, joints=(Joint(body=-1, anchor=(0, 0, 0), length=1.0),)),
+    (lambda: Scene(parts=(Particles.of(TWO), Joints.of((Joint(body=-1, anchor=(0, 0, 0), length=1.0),)))),
      "joint body index must be in [0, 1], got -1"),
-    (lambda: Scene(bodies=TWO, dim=4), "scene.dim must be 2 or 3, got 4"),
-    (lambda: Scene(bodies=TWO, linear_drag=-1), "scene.linear_drag must be a finite number >= "
+    (lambda: Scene(parts=(Particles.of(TWO),), dim=4), "scene.dim must be 2 or 3, got 4"),
+    (lambda: Scene(parts=(Particles.of(TWO),), linear_drag=-1), "scene.linear_drag must be a finite number >= "
      "0, got -1.0"),
-    (lambda: Scene(bodies=TWO, gravity=(0, 0)), "scene.gravity must have 3 components, got 2"),
+    (lambda: Scene(parts=(Particles.of(TWO),), gravity=(0, 0)), "scene.gravity must have 3 components, got 2"),
     (lambda: Body(mass=0.0, position=(0, 0, 0), name="bob"),
      "bob.mass must be a finite number > 0, got 0.0"),
     (lambda: Wall(point=(0, 0, 0), normal=(0, 0, 0)), "wall.normal must be a non-zero vector"),
@@ -275,54 +277,67 @@ def _case_scenes():
 
 
 @pytest.mark.parametrize("label,scene", list(_case_scenes()))
-def test_case_scene_arrays_hold_the_records_values(label, scene):
-    """The stored arrays are the records' values, float64, read-only, the same object on each
-    access."""
-    for accessor, attr in (("masses", "mass"), ("positions", "position"),
-                           ("velocities", "velocity"), ("radii", "radius"),
-                           ("inertias", "inertia"), ("angular_velocities", "angular_velocity")):
-        arr = getattr(scene, accessor)
-        assert arr is getattr(scene, accessor) and not arr.flags.writeable
-        assert arr.dtype == np.float64 and len(arr) == len(scene.bodies)
-        for row, body in zip(arr, scene.bodies):
-            assert np.array_equal(row, getattr(body, attr))
-    assert scene.spring_set.to_records() == scene.springs
-    assert scene.joint_set.to_records() == scene.joints
-    assert scene.wall_set.to_records() == scene.walls
-    assert isinstance(scene.bodies, tuple) and isinstance(scene.walls, tuple)
+def test_case_scenes_hold_each_part_once_as_read_only_arrays(label, scene):
+    """Every case's scene: each part held once (asked for by its class, the same object each
+    time), array parts read-only and float64 where they hold numbers; records made on demand
+    equal the arrays."""
+    for part in scene.parts:
+        assert scene.parts_of(type(part)).count(part) == 1
+        if not getattr(type(part), "many", False):
+            assert scene.part(type(part)) is part
+    particles = scene.part(Particles)
+    if particles is not None:
+        for attr in ("mass", "position", "velocity", "radius", "inertia", "angular_velocity"):
+            arr = getattr(particles, attr)
+            assert arr is getattr(scene.part(Particles), attr) and not arr.flags.writeable
+            assert arr.dtype == np.float64 and len(arr) == len(particles)
+        assert Particles.of(particles.to_records()) == particles
+    for cls in (Springs, Joints, Walls):
+        part = scene.part(cls)
+        assert part is None or cls.of(part.to_records()) == part
+
+
+def test_a_part_is_asked_for_by_its_class():
+    two = Scene(parts=(grid(), grid(model="wave", fields={"w": np.zeros((5, 4))})))
+    assert len(two.parts_of(Grid)) == 2
+    with pytest.raises(ValueError, match=r"scene holds 2 Grid parts: ask for them with "
+                                         r"scene.parts_of\(Grid\)"):
+        two.part(Grid)
+    scene = Scene(parts=(Particles.of(TWO), None, Springs.of(())))  # None and empty: dropped
+    assert scene.parts == (scene.part(Particles),) and scene.part(Springs) is None
+    assert scene.with_part(Springs.of((Spring(0, 1.0, 0.0),))).part(Springs) is not None
 
 
 def test_a_scene_from_parts_equals_the_scene_from_records():
     spring = Spring(body=0, stiffness=5.0, rest_length=0.2, other=1, damping=0.1)
     rod = Joint(body=1, anchor=(0, 0, 2), length=1.0, axis=(0, 1, 1))
     wall = Wall(point=(0, 0, 0), normal=(1, 1, 0))
-    records = Scene(bodies=TWO, springs=(spring,), joints=(rod,), walls=(wall,))
-    parts = Scene(bodies=Particles.from_records(TWO), springs=Springs.from_records((spring,)),
-                  joints=Joints.from_records((rod,)), walls=Walls.from_records((wall,)))
+    records = Scene(parts=(Particles.of(TWO), Springs.of((spring,)), Joints.of((rod,)), Walls.of((wall,))))
+    parts = Scene(parts=(Particles.of(Particles.from_records(TWO)), Springs.of(Springs.from_records((spring,))), Joints.of(Joints.from_records((rod,))), Walls.of(Walls.from_records((wall,)))))
     assert parts == records and hash(parts) == hash(records)
     assert np.array_equal(parts.wall_set.normal[0], wall.normal)  # unit rows kept bit-exact
-    assert Scene(bodies=TWO, gravity=(0, 0, -1)) != records
+    assert Scene(parts=(Particles.of(TWO),), gravity=(0, 0, -1)) != records
 
 
 FEATURES = [  # (scene, features, part kinds)
-    (Scene(bodies=TWO[:1], gravity=(0, 0, -9.81)), {"gravity"}, {"particles"}),
-    (Scene(bodies=TWO[:1], linear_drag=0.5), {"drag"}, {"particles"}),
-    (Scene(bodies=TWO[:1], springs=(Spring(0, 1.0, 0.0),)), {"springs"},
+    (Scene(parts=(Particles.of(TWO[:1]),), gravity=(0, 0, -9.81)), {"gravity"}, {"particles"}),
+    (Scene(parts=(Particles.of(TWO[:1]),), linear_drag=0.5), {"drag"}, {"particles"}),
+    (Scene(parts=(Particles.of(TWO[:1]), Springs.of((Spring(0, 1.0, 0.0),)))), {"springs"},
      {"particles", "springs"}),
-    (Scene(bodies=TWO[:1], joints=(Joint(0, (0, 0, 2), 1.0),), gravity=(0, 0, -1)),
+    (Scene(parts=(Particles.of(TWO[:1]), Joints.of((Joint(0, (0, 0, 2), 1.0),))), gravity=(0, 0, -1)),
      {"gravity", "joints"}, {"particles", "joints"}),
-    (Scene(bodies=TWO, contact=ContactModel(), walls=(Wall((0, 0, 0), (0, 0, 1)),)),
+    (Scene(parts=(Particles.of(TWO), Walls.of((Wall((0, 0, 0), (0, 0, 1)),))), contact=ContactModel()),
      {"contacts", "walls"}, {"particles", "walls"}),
-    (Scene(fluid=FluidBlock((0, 0), (1, 2), 0.1, 4.0, 3.0), gravity=(0, -9.81, 0), dim=2),
+    (Scene(parts=(FluidBlock((0, 0), (1, 2), 0.1, 4.0, 3.0),), gravity=(0, -9.81, 0), dim=2),
      {"fluid", "walls", "gravity"}, {"fluid"}),
-    (Scene(rigid=rigid()), {"rigid"}, {"rigid"}),
-    (Scene(networks=(network(),), gravity=(0, 0, -9.81)), {"networks", "gravity"},
+    (Scene(parts=(rigid(),)), {"rigid"}, {"rigid"}),
+    (Scene(parts=(network(),), gravity=(0, 0, -9.81)), {"networks", "gravity"},
      {"networks"}),
-    (Scene(meshes=(mesh(),)), {"fem"}, {"meshes"}),
-    (Scene(meshes=mesh(material=material(plasticity=Plasticity(1e5)))), {"fem", "plasticity"},
+    (Scene(parts=(mesh(),)), {"fem"}, {"meshes"}),
+    (Scene(parts=(mesh(material=material(plasticity=Plasticity(1e5))),)), {"fem", "plasticity"},
      {"meshes"}),
-    (Scene(grids=(grid(),)), {"grid", "diffusion"}, {"grids"}),
-    (Scene(rigid=rigid(), grids=(grid(model="wave"),)), {"rigid", "grid", "wave"},
+    (Scene(parts=(grid(),)), {"grid", "diffusion"}, {"grids"}),
+    (Scene(parts=(rigid(), grid(model="wave"))), {"rigid", "grid", "wave"},
      {"rigid", "grids"}),
 ]
 
@@ -334,40 +349,40 @@ def test_features_and_part_kinds_come_from_the_parts(scene, features, kinds):
     assert kinds <= set(PART_KINDS)
 
 
-@pytest.mark.parametrize("extra", [{"rigid": rigid()}, {"networks": (network(),)},
-                                   {"meshes": (mesh(),)},
-                                   {"fluid": FluidBlock((0, 0), (1, 2), 0.1, 4.0, 3.0)}])
-def test_a_scene_mixing_two_moving_kinds_is_rejected(extra):
+@pytest.mark.parametrize("other", [rigid(), network(), mesh(),
+                                   FluidBlock((0, 0), (1, 2), 0.1, 4.0, 3.0)])
+def test_a_scene_mixing_two_moving_kinds_is_rejected(other):
     with pytest.raises(ValueError, match="one kind of moving bodies"):
-        Scene(bodies=TWO, **extra)
+        Scene(parts=(Particles.of(TWO), other))
     with pytest.raises(ValueError, match="one kind of moving bodies"):
-        Scene(networks=(network(),), meshes=(mesh(),))
+        Scene(parts=(network(), mesh()))
 
 
-def test_new_scene_arguments_are_checked():
-    with pytest.raises(ValueError, match="scene.networks"):
-        Scene(networks=(mesh(),))
-    with pytest.raises(ValueError, match="scene.rigid"):
-        Scene(rigid=network())
-    with pytest.raises(ValueError, match="scene.grids field names"):
-        Scene(grids=(grid(), grid(model="wave")))
+def test_scene_parts_are_checked():
+    with pytest.raises(ValueError, match="scene.parts must hold parts"):
+        Scene(parts=(Particles.of(TWO), "springs"))
+    with pytest.raises(ValueError, match="at most one Particles part, got 2"):
+        Scene(parts=(Particles.of(TWO), Particles.of(TWO)))
+    with pytest.raises(ValueError, match="grids' field names must be distinct"):
+        Scene(parts=(grid(), grid(model="wave")))
+    with pytest.raises(ValueError, match="scene.contact must be a ContactModel"):
+        Scene(parts=(Particles.of(TWO),), contact=0.5)
 
 
 def test_plane_checks_accept_planar_motion_and_refuse_spin_out_of_it():
-    flat = Scene(bodies=(Body(1.0, (1.0, 0.0, 0.0), (0.0, 0.0, 1.0),
-                              angular_velocity=(0.0, 3.0, 0.0)),),
-                 gravity=(0, 0, -9.81), joints=(Joint(0, (0, 0, 0), 1.0, axis=(0, -2, 0)),))
+    flat = Scene(parts=(Particles.of((Body(1.0, (1.0, 0.0, 0.0), (0.0, 0.0, 1.0),
+                              angular_velocity=(0.0, 3.0, 0.0)),)), Joints.of((Joint(0, (0, 0, 0), 1.0, axis=(0, -2, 0)),))), gravity=(0, 0, -9.81))
     assert flat.stays_in_xz_plane() and not flat.stays_in_plane(2)
-    spun = Scene(bodies=(Body(1.0, (1.0, 0.0, 0.0), angular_velocity=(1.0, 0.0, 0.0)),))
+    spun = Scene(parts=(Particles.of((Body(1.0, (1.0, 0.0, 0.0), angular_velocity=(1.0, 0.0, 0.0)),)),))
     assert not spun.stays_in_xz_plane()
-    assert Scene(networks=(network(),)).stays_in_plane(2)
-    assert not Scene(rigid=rigid()).stays_in_plane(2)  # rigid bodies: not analysed
+    assert Scene(parts=(network(),)).stays_in_plane(2)
+    assert not Scene(parts=(rigid(),)).stays_in_plane(2)  # rigid bodies: not analysed
 
 
-@pytest.mark.parametrize("kind,build", [("rigid", lambda **kw: Scene(rigid=rigid(**kw))),
-                                        ("network", lambda **kw: Scene(networks=network(**kw))),
-                                        ("mesh", lambda **kw: Scene(meshes=mesh(**kw))),
-                                        ("grid", lambda **kw: Scene(grids=grid(**kw)))])
+@pytest.mark.parametrize("kind,build", [("rigid", lambda **kw: Scene(parts=(rigid(**kw),))),
+                                        ("network", lambda **kw: Scene(parts=(network(**kw),))),
+                                        ("mesh", lambda **kw: Scene(parts=(mesh(**kw),))),
+                                        ("grid", lambda **kw: Scene(parts=(grid(**kw),)))])
 def test_scenes_of_new_parts_compare_and_hash_by_value(kind, build):
     changed = {"rigid": {"mass": [3.0]}, "network": {"stiffness": 50.0},
                "mesh": {"thickness": 0.5}, "grid": {"fields": {"T": np.ones((5, 4))}}}[kind]
