@@ -1,32 +1,33 @@
 """The contract every engine adapter implements (the in-house `refsim` engine included).
 
-The base classes do the bookkeeping (scipy's `OdeSolver.step` / `_step_impl` split); a
-subclass writes only the engine's own work. Contract for an implementer:
-1. `Engine.name`, `parts` (scene part kinds it simulates, refsim.scene.PART_KINDS),
-   `capabilities` (scene features it simulates), `dims` (2, 3 or both) and `integrators`
-   (names it offers) are class attributes; `package` names the Python package it needs;
-2. `available()` says whether that package imports; `version()` gives its version;
-3. `supports(scene, integrator)` returns None or one specific sentence saying why not (the
-   base checks parts, features, dimension and integrator; override `_supports` for more);
-4. `variants(scene)` names alternative formulations of the same scene ("" is the default);
-5. `_build(scene, dt, integrator, variant)` returns a `Sim` at t = 0. `build` validates dt,
-   variant and support first (ValueError naming the parameter). Model compilation goes in
-   `Sim.compile_s`, never in stepping;
-6. `Sim._step_impl(n)` advances n >= 1 steps of dt without observing; `Sim.step(n)` validates
+An engine is who it is plus the model groups it runs. Contract for an implementer:
+1. The `Engine` subclass declares only its identity, as class attributes: `name`, `package`
+   (the Python package it needs), `dims` (2, 3 or both), `integrators` (names it offers),
+   `reference`, `equivalents`, and `refusals` (part kind or feature -> one sentence saying why
+   the engine does not run it: data, not code); `available()` and `version()` come from the
+   base;
+2. every scene runs through a model group (`ModelGroup`): the group that `claims` the scene
+   gives its `parts` and `features` (checked by `supports`, with the dimension and the
+   integrator), its own `supports` reasons, its `formulations` (named alternatives of the
+   same model, "" the default) and `build(engine, scene, dt, integrator, formulation)` -> a
+   `Sim` at t = 0. `Engine.build` validates dt, the formulation and support first
+   (ValueError naming the parameter). A scene no group claims is refused with the engine's
+   `refusals` entry for its first part kind or feature, or a generic sentence;
+3. the groups are the modules of the engine package's `groups/` subpackage that define
+   `MODEL_GROUP = ModelGroup(...)` (found by `discover_groups`, in module-name order: a new
+   group is a new file, no edit to the engine), after any declared in the class
+   (`Engine.groups`, for a small third-party engine). The first group claiming a scene runs it.
+   Group modules import the engine's package lazily, like adapters;
+4. `Sim._step_impl(n)` advances n >= 1 steps of dt without observing; `Sim.step(n)` validates
    n, does nothing once the sim has failed, counts steps (simulated time `time()` = steps x dt) and
-   turns the exceptions listed in `Sim.failures` (and `EngineFailure`) into `Sim.failure`;
-7. `Sim._observe()` returns the observables of refsim.observation (per part: "x", "v", ...;
+   turns the exceptions listed in `Sim.failures` (and `EngineFailure`) into `Sim.failure`.
+   Model compilation goes in `Sim.compile_s`, never in stepping;
+5. `Sim._observe()` returns the observables of refsim.observation (per part: "x", "v", ...;
    engine extras such as "constraint"); `observe()` adds "t";
-8. `Sim.settings()` returns the effective engine parameters as JSON-serialisable data, with
+6. `Sim.settings()` returns the effective engine parameters as JSON-serialisable data, with
    "integrator" an `IntegratorInfo` (or its dict): the order and symplecticity tolerances read.
 A subclass may still override `step` and `observe` whole (a third-party engine written against
 the first contract): then it keeps its own time and failure bookkeeping.
-
-Model groups (new files only): a module in the engine package's `groups/` subpackage that
-defines `MODEL_GROUP = ModelGroup(...)` adds a model group to the engine with no edit to it.
-For a scene the group `claims`, `supports`, `variants` and `build` go to the group (after the
-base's dimension and integrator checks); other scenes go to the engine's own `_supports`,
-`variants` and `_build`. Group modules import the engine's package lazily, like adapters.
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """A ballistic particle emitter: the `Emitter` part (the scene's moving part).
 
-`Scene(extra=(Emitter(...),), gravity=(0, 0, -9.81))`. Particle i (i = 0, 1, ...) is born at
+`Scene(parts=(Emitter(...),), gravity=(0, 0, -9.81))`. Particle i (i = 0, 1, ...) is born at
 the origin with velocity mean + spread (2 u - 1), u in [0, 1)^3 a deterministic function of
 (seed, i) (`spawn_states`: engines and references use the same), and lives `lifetime` s. How
 births and removals fall on the step boundaries is refsim/models/emitter.py's; so is the fixed

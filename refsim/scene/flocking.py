@@ -1,6 +1,6 @@
 """Flocking rules between the scene's particles: the `Flocking` part.
 
-`Scene(bodies=Particles(...), extra=(Flocking(...),))`; every particle is a bird. Two rules:
+`Scene(parts=(Particles(...), Flocking(...)))`; every particle is a bird. Two rules:
 
 - "cucker_smale" (Cucker & Smale 2007, IEEE TAC 52(5), "Emergent behavior in flocks"):
       a_i = (1/N) sum_j psi(|x_i - x_j|) (v_j - v_i),   psi(r) = K / (sigma^2 + r^2)^beta

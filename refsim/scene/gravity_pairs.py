@@ -1,6 +1,6 @@
 """Mutual Newtonian gravity between the scene's particles: the `GravityPairs` part.
 
-Every pair of the scene's particles (`Scene(bodies=Particles(...), extra=(GravityPairs(),))`)
+Every pair of the scene's particles (`Scene(parts=(Particles(...), GravityPairs()))`)
 attracts with the force of Newton's law, softened by a Plummer length eps:
 
     F_ij = G m_i m_j (x_j - x_i) / (|x_j - x_i|^2 + eps^2)^(3/2)       (on i, from j)

@@ -1,6 +1,6 @@
 """Lennard-Jones pair forces between the scene's particles: the `LennardJones` part.
 
-Every pair of the scene's particles (`Scene(bodies=Particles(...), extra=(LennardJones(...),),
+Every pair of the scene's particles (`Scene(parts=(Particles(...), LennardJones(...)),
 dim=2 or 3)`) interacts through the 12-6 potential, cut off at r_c and optionally shifted:
 
     U(r) = 4 eps ((sigma/r)^12 - (sigma/r)^6) - [shift] U_LJ(r_c)     for r < r_c, 0 beyond

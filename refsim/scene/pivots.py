@@ -3,7 +3,7 @@
 A pivot fixes the point `body_point` of rigid body `body` (body frame, metres from the centre of
 mass) at the world point `anchor`: the body may turn freely about it (a spherical joint; a
 planar scene whose bodies spin about one axis only makes it a hinge about that axis). Scenes
-pass it in `Scene(rigid=..., extra=(RigidPivots(...),))`; a body has at most one pivot, and at
+pass it in `Scene(parts=(RigidBodies(...), RigidPivots(...)))`; a body has at most one pivot, and at
 t = 0 its body point must sit on the anchor (`check_on_anchor`, from the rigid part's state).
 Observables are the rigid part's (x, v, q, w: refsim/observation.py).
 """

@@ -4,7 +4,7 @@ A shape gives rigid body `body` a collision geometry in its body frame, centred 
 mass: a "sphere" of `radius`, or a "cylinder" of `radius` and `half_length` whose axis is the
 body-frame y axis. Mass and inertia stay the rigid part's (`RigidBodies`): a hoop is a cylinder
 shape on a body with I = m r^2 about y, a solid disc the same shape with I = m r^2 / 2. Scenes
-pass it in `Scene(rigid=..., extra=(RigidShapes(...),))`; with walls and a `ContactModel` the
+pass it in `Scene(parts=(RigidBodies(...), RigidShapes(...)))`; with walls and a `ContactModel` the
 shapes touch the walls. Feature "shapes". Observables are the rigid part's (x, v, q, w:
 refsim/observation.py).
 """

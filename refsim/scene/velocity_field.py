@@ -1,8 +1,8 @@
 """A prescribed velocity field moving the scene's particles: the `VelocityField` part.
 
 FIRST-ORDER dynamics (slide 003): the particles are massless tracers, p' = u(t, p); their
-masses and initial velocities are ignored (`Scene(bodies=Particles(...), extra=(
-VelocityField(...),))`). Two affine fields, u = M (p - c):
+masses and initial velocities are ignored (`Scene(parts=(Particles(...),
+VelocityField(...)))`). Two affine fields, u = M (p - c):
 
 - "rigid_vortex": u = Omega x (p - c) (M = [Omega]_x), a rigid rotation about the axis through
   `centre` along `omega` at rate |omega| (rad/s): |p - c| and the axial coordinate are
