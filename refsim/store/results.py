@@ -27,8 +27,10 @@ KEY = ["case", "variant", "engine", "engine_variant", "integrator", "dt"]
 # The stored run's format, stamped in manifest.json ("format"). 2: the two verdicts
 # (consistency, reaches_target) and call_us. A run without a stamp is format 1: stored before
 # formats were stamped; its columns say what it holds (within_tol and unresolved are read as
-# the consistency verdict by refsim.verdicts.upgrade_table). A newer format is refused.
-FORMAT = 2
+# the consistency verdict by refsim.verdicts.upgrade_table). 3: `settings` holds values, its
+# prose once per run in settings_text.json (refsim.store.settings_text; `expand` reads both).
+# A newer format is refused.
+FORMAT = 3
 
 
 def new_run_id() -> str:
@@ -88,6 +90,10 @@ class RunStore:
         return {row_key(r) for r in self.rows}
 
     def add(self, row: dict) -> None:
+        if not hasattr(self, "_prose"):
+            from refsim.store.settings_text import SettingsText
+            self._prose = SettingsText(self.dir)
+        row = self._prose.store_row(row)
         self.rows.append(row)
         with open(self.dir / JOURNAL, "a") as handle:
             handle.write(json.dumps(row, default=_plain) + "\n")

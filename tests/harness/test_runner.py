@@ -3,20 +3,23 @@ import numpy as np
 import pytest
 
 from refsim import registry
-from refsim.engine import Engine
+from refsim.engine import Engine, ModelGroup
 from refsim.run.job import Job, run_job
 from refsim.run.runner import expand, run_matrix
 from refsim.store.results import RunStore, load_results
 
 
+def _explode(engine, scene, dt, integrator, formulation):
+    raise RuntimeError("solver exploded\nsecond line")
+
+
 class BrokenEngine(Engine):
     name = "broken"
-    capabilities = frozenset({"gravity", "springs", "joints", "drag"})
     dims = (2, 3)
     integrators = ("symplectic_euler",)
-
-    def build(self, scene, dt, integrator, variant=""):
-        raise RuntimeError("solver exploded\nsecond line")
+    groups = (ModelGroup(name="particles", claims=lambda scene: True, parts=None,
+                         features=frozenset({"gravity", "springs", "joints", "drag"}),
+                         build=_explode),)
 
 
 class MissingEngine(BrokenEngine):
