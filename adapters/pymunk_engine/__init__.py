@@ -31,10 +31,13 @@ moment > 0 with moment = inf for a point mass, `Body.kinetic_energy` (m v^2 + I 
 kinetic energy) never used, springs as `DampedSpring`, the `PinJoint` bias made explicit,
 elasticity and friction multiplied per pair (sqrt of e and mu on every shape).
 
-Modules: `engine` (PymunkEngine: what it simulates, variants, support), `plane` (refsim's
-3-vectors onto pymunk's plane), `space` (the pymunk Space, bodies, shapes, walls, springs and
-joints built from the scene), `sim` (PymunkSim: stepping and observation), `settings` (the
-effective parameters reported with every row).
+Modules: `engine` (PymunkEngine: who it is and its refusals table), `groups/` (the model
+groups: particles, spheres, gravity_pairs, pivots, rolling in contact_rolling.py,
+spring_network), `plane` (refsim's 3-vectors onto pymunk's plane), `space` (the pymunk Space,
+bodies, shapes, walls, springs and joints built from the parts a group passes), `sim`
+(PymunkSim: stepping and observation of the particles and spheres groups), `settings` (the
+effective parameters reported with every row), `body_arrays`, `network_springs` and
+`network_links` (the spring_network group's batched access and sims).
 """
 from .engine import PymunkEngine
 

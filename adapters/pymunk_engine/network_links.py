@@ -155,9 +155,9 @@ class LinkBodies:
 class PymunkLinkChainSim(Sim):
     """One Body per moving link, PivotJoints at the nodes, DampedRotarySprings at hinges."""
 
-    def __init__(self, pymunk, scene, dt):
+    def __init__(self, pymunk, scene, dt, net):
         self.scene, self.dt, self.steps = scene, dt, 0
-        self.net = net = scene.networks[0]
+        self.net = net
         self.plane = plane = Plane(3)
         self.axes = list(plane.axes)
         self.p, _ = chain_layout(net)

@@ -50,9 +50,9 @@ def uniform_mass(net) -> bool:
 class PymunkSpringNetworkSim(Sim):
     """One Body per free node, one DampedSpring per edge with a free end."""
 
-    def __init__(self, pymunk, scene, dt, variant):
-        self.scene, self.dt, self.steps, self.variant = scene, dt, 0, variant
-        self.net = net = scene.networks[0]
+    def __init__(self, pymunk, scene, dt, net, formulation):
+        self.scene, self.dt, self.steps, self.formulation = scene, dt, 0, formulation
+        self.net = net
         self.plane = plane = Plane(3)
         self.axes = list(plane.axes)
         self.free = free_mask(net)
@@ -60,8 +60,8 @@ class PymunkSpringNetworkSim(Sim):
         space.iterations, space.gravity = ITERATIONS, plane.to2d(scene.gravity)
         self.drag = float(scene.linear_drag)
         space.damping = (math.exp(-self.drag / float(net.masses[0]))
-                         if variant == SPACE_DAMPING else 1.0)
-        self.force_drag = self.drag if variant != SPACE_DAMPING else 0.0
+                         if formulation == SPACE_DAMPING else 1.0)
+        self.force_drag = self.drag if formulation != SPACE_DAMPING else 0.0
         free_nodes = np.flatnonzero(self.free)
         bodies = {}
         for node in free_nodes:  # build time: pymunk takes one body per call
@@ -116,7 +116,7 @@ class PymunkSpringNetworkSim(Sim):
                            "note": "drift, spring impulses k (L0 - d) h at the drifted "
                                    "positions, gravity and drag kick, then the springs' "
                                    "damping impulse passes"},
-            "formulation": self.variant or "springs",
+            "formulation": self.formulation or "springs",
             "dtype": "float64", "threads": 1,
             "plane": "refsim (x, z) -> pymunk (x, y), y-up; observed y = 0",
             "space": {"iterations": self.space.iterations, "damping": self.space.damping,
@@ -142,7 +142,7 @@ class PymunkSpringNetworkSim(Sim):
     def _drag_settings(self):
         if self.drag == 0:
             return {"c_air": 0.0, "method": "none"}
-        if self.variant == SPACE_DAMPING:
+        if self.formulation == SPACE_DAMPING:
             return {"c_air": self.drag, "method": "space.damping = exp(-c_air / m): v *= "
                     "exp(-c_air h / m) in the velocity update (exact for drag alone); it also "
                     "scales the step's spring impulse, so the static shape is the one under "

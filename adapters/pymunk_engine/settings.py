@@ -1,10 +1,12 @@
-"""The effective pymunk parameters of a PymunkSim, reported with every row (`Sim.settings`)."""
+"""The effective pymunk parameters of a PymunkSim, reported with every row (`Sim.settings`):
+what the sim was built with (its springs, rods, contact model and walls), never the scene's
+kinds."""
 from __future__ import annotations
 
 import math
 
 from ..common.contacts import per_shape_coefficients
-from .space import PYMUNK_DEFAULTS, wall_half_length
+from .space import PYMUNK_DEFAULTS
 
 NATIVE_STEP = ("cpSpaceStep: position_func (x += h v), constraint preStep at the new positions "
                "(spring impulse), velocity_func (v += h (g + f/m)), impulse iterations")
@@ -12,7 +14,7 @@ NATIVE_STEP = ("cpSpaceStep: position_func (x += h v), constraint preStep at the
 
 def sim_settings(sim):
     scene, space = sim.scene, sim.space
-    out = {"integrator": integrator_settings(sim.variant, bool(scene.joints)),
+    out = {"integrator": integrator_settings(sim.formulation, bool(sim.joints)),
            "dtype": "float64", "threads": 1,
            "plane": ("refsim (x, z) -> pymunk (x, y), y-up; observed y = 0"
                      if scene.dim == 3 else "refsim (x, y) -> pymunk (x, y)"),
@@ -23,27 +25,27 @@ def sim_settings(sim):
            "bodies": {"moment": "inf for point masses "
                                 "(docs/engine_notes.md#pymunk-mass-and-moment: mass and "
                                 "moment must be > 0), else the scene's inertia",
-                      "shapes": ("a Circle per sphere" if scene.contact is not None
+                      "shapes": ("a Circle per sphere" if sim.contact is not None
                                  else "none (nothing collides: no collision detection)")},
            "energy": "computed by the case from x and v; Body.kinetic_energy (m v^2 + "
                      "I w^2, twice KE) is not used",
            "python_per_step": "one Python call to space.step(dt) per step (pymunk's API has "
                               "no multi-step call); timings include it"}
-    if scene.springs:
+    if sim.springs:
         out["springs"] = spring_settings(sim.springs)
-    if scene.joints:
-        out["joints"] = joint_settings(sim.joints, sim.variant, sim.dt)
+    if sim.joints:
+        out["joints"] = joint_settings(sim.joints, sim.formulation, sim.dt)
     if scene.linear_drag > 0:
-        out["drag"] = drag_settings(scene.linear_drag, sim.variant, space)
-    if scene.contact is not None:
+        out["drag"] = drag_settings(scene.linear_drag, sim.formulation, space)
+    if sim.contact is not None:
         out.update(contact_settings(sim))
     return out
 
 
-def integrator_settings(variant, has_joints):
+def integrator_settings(formulation, has_joints):
     # the default PinJoint bias dissipates energy of a conservative system (measured:
     # steady loss over 200 s); damping and drag are physics, not the method's doing
-    symplectic = variant != "default_bias"
+    symplectic = formulation != "default_bias"
     out = {"name": "symplectic_euler_dk", "order": 1, "family": "symplectic Euler",
            "explicit": True, "symplectic": symplectic, "native": NATIVE_STEP}
     if has_joints:
@@ -54,8 +56,8 @@ def integrator_settings(variant, has_joints):
     return out
 
 
-def drag_settings(b, variant, space):
-    if variant == "space_damping":
+def drag_settings(b, formulation, space):
+    if formulation == "space_damping":
         return {"method": "space.damping = exp(-b/m): v *= exp(-b dt/m) before the gravity "
                           "kick (exponential, exact for drag alone; differs from the "
                           "explicit -b v at O(dt^2) per step)",
@@ -76,7 +78,7 @@ def spring_settings(springs):
                               "-c (v.u) u by O(dt^2) per step, O(dt) over a run)"}
 
 
-def joint_settings(joints, variant, dt):
+def joint_settings(joints, formulation, dt):
     bias = [j.error_bias for j in joints]
     return {"type": "PinJoint", "formulation": "maximal coordinates, sequential impulses",
             "error_bias": bias, "bias_coef_per_step": [1.0 - b ** dt for b in bias],
@@ -88,7 +90,7 @@ def joint_settings(joints, variant, dt):
             "max_force": [str(j.max_force) for j in joints],
             "fix": ("error_bias = 0 (docs/engine_notes.md#pymunk-joint-bias-loses-energy: "
                     "pymunk's default bias loses energy, 0.118 rad off at a 2.5 rad start)")
-                   if variant != "default_bias" else
+                   if formulation != "default_bias" else
                    ("pymunk's default error_bias kept (0.9^60 in single precision = 1.797e-3: "
                     "0.18 % of the error left after one second), shown for comparison")}
 
@@ -107,7 +109,7 @@ CONTACT_FACTS = (
 
 def contact_settings(sim):
     return {"contact_model": "impulse", "detection": "discrete", "contact": CONTACT_FACTS,
-            **_coefficient_settings(sim.scene.contact), **_moment_settings(sim.bodies),
+            **_coefficient_settings(sim.contact), **_moment_settings(sim.bodies),
             **_correction_settings(sim.space, sim.dt), **_solver_settings(sim)}
 
 
@@ -152,7 +154,7 @@ def _correction_settings(space, dt):
 def _solver_settings(sim):
     walls = ("none" if not sim.walls else
              f"static Segment (radius 0) per wall, half-length "
-             f"{wall_half_length(sim.scene):g} m about the wall point (pymunk has no "
+             f"{sim.wall_half_length:g} m about the wall point (pymunk has no "
              f"half-plane); its closest-point rounding (eps x half-length) tilts "
              f"the normal by ~eps x half-length / r (measured 2.3e-13 m/s); wall "
              f"impulses are not reported")

@@ -1,4 +1,5 @@
-"""The pymunk Space built from a scene: bodies, circles, wall segments, springs and joints.
+"""The pymunk Space of a particle scene: bodies, circles, wall segments, springs and joints,
+each built from the arrays of the part the model group passes (never from the scene's kinds).
 
 docs/engine_notes.md#pymunk facts applied (pymunk 7.3.1): no damping, zero gravity unless the
 scene sets it, 10 iterations, mass and moment > 0 with moment = inf for a point mass, springs as
@@ -23,88 +24,99 @@ PYMUNK_DEFAULTS = {"collision_slop": 0.1, "collision_bias": 0.9 ** 60,
 WALL_HALF_LENGTH = 100.0  # wall segments span +- this many scene sizes around the wall point
 
 
-def make_space(pymunk, scene, variant, gravity):
+def make_space(pymunk, gravity, damping=1.0):
     """A fresh space: gravity from the scene (pymunk's default is zero), damping 1.0 (none)
-    unless drag is mapped to pymunk's global damping, the 10 iterations of
+    unless the caller maps drag onto pymunk's global damping, the 10 iterations of
     docs/engine_notes.md#pymunk-space-defaults, unthreaded, contact position correction off
     (see COLLISION_BIAS)."""
     space = pymunk.Space(threaded=False)
     space.iterations = ITERATIONS
     space.gravity = gravity
-    space.damping = 1.0
+    space.damping = damping
     space.collision_bias, space.collision_slop = COLLISION_BIAS, COLLISION_SLOP
-    if variant == "space_damping":
-        space.damping = math.exp(-scene.linear_drag / scene.bodies[0].mass)
     return space
 
 
-def make_body(pymunk, body, plane):
-    """docs/engine_notes.md#pymunk-mass-and-moment (pymunk 7.3.1): mass and moment must be
-    > 0; moment = inf for a point mass (no rotation to integrate). A sphere's moment is the
-    scene's inertia (2/5 m r^2), set here and never recomputed: its circle shape carries no
-    mass or density."""
-    moment = body.inertia if body.inertia > 0 else math.inf
-    pb = pymunk.Body(body.mass, moment)
-    pb.position, pb.velocity = plane.to2d(body.position), plane.to2d(body.velocity)
-    pb.angular_velocity = plane.spin_sign * body.angular_velocity[plane.normal_axis]
-    return pb
+def make_bodies(pymunk, particles, plane):
+    """One pymunk.Body per particle (build time: pymunk takes one body per call).
+    docs/engine_notes.md#pymunk-mass-and-moment (pymunk 7.3.1): mass and moment must be > 0;
+    moment = inf for a point mass (no rotation to integrate). A sphere's moment is the scene's
+    inertia (2/5 m r^2), set here and never recomputed: its circle shape carries no mass or
+    density."""
+    out = []
+    rows = zip(particles.mass, particles.inertia, particles.position, particles.velocity,
+               particles.angular_velocity)
+    for mass, inertia, position, velocity, spin in rows:
+        pb = pymunk.Body(float(mass), float(inertia) if inertia > 0 else math.inf)
+        pb.position, pb.velocity = plane.to2d(position), plane.to2d(velocity)
+        pb.angular_velocity = plane.spin_sign * spin[plane.normal_axis]
+        out.append(pb)
+    return out
 
 
-def make_circles(pymunk, bodies, scene):
+def make_circles(pymunk, bodies, radii, contact):
     """One Circle per sphere, carrying sqrt(e) and sqrt(mu): Chipmunk multiplies the two
     shapes' coefficients per contact (cpArbiterUpdate: e = a.e * b.e, u = a.u * b.u; measured:
     0.5 on each gives e = 0.25), so the pair's product is e (mu) to 1 ulp
     (adapters.common.contacts.per_shape_coefficients)."""
-    e, mu = per_shape_coefficients(scene.contact)
+    e, mu = per_shape_coefficients(contact)
     circles = []
-    for pb, body in zip(bodies, scene.bodies):
-        circle = pymunk.Circle(pb, body.radius)
+    for pb, radius in zip(bodies, radii):
+        circle = pymunk.Circle(pb, float(radius))
         circle.elasticity, circle.friction = e, mu
         circles.append(circle)
     return circles
 
 
-def wall_half_length(scene):
+def wall_half_length(positions, wall_points):
     """Half-length of a wall segment: pymunk has no half-plane, so a wall is a static
     segment spanning WALL_HALF_LENGTH scene sizes (bodies' spread about the wall points)."""
-    pts = np.array([b.position for b in scene.bodies] + [w.point for w in scene.walls])
+    pts = np.vstack([np.reshape(positions, (-1, 3)), np.reshape(wall_points, (-1, 3))])
     size = max(1.0, float(np.ptp(pts, axis=0).max()))
     return WALL_HALF_LENGTH * size
 
 
-def make_wall(pymunk, space, wall, scene, plane):
+def make_wall(pymunk, space, point, normal, half_length, contact, plane):
     """A Segment (radius 0) on the static body along the wall line, with the same sqrt(e),
     sqrt(mu) as the circles so a sphere-wall contact gets e and mu. Two-sided: the
     scene's inward normal only says where the spheres are."""
-    p, n = np.array(plane.to2d(wall.point)), np.array(plane.to2d(wall.normal))
-    t = np.array([-n[1], n[0]]) / np.linalg.norm(n) * wall_half_length(scene)
+    p, n = np.array(plane.to2d(point)), np.array(plane.to2d(normal))
+    t = np.array([-n[1], n[0]]) / np.linalg.norm(n) * half_length
     seg = pymunk.Segment(space.static_body, tuple(p - t), tuple(p + t), 0.0)
-    seg.elasticity, seg.friction = per_shape_coefficients(scene.contact)
+    seg.elasticity, seg.friction = per_shape_coefficients(contact)
     return seg
 
 
-def add_spring(pymunk, space, bodies, spring, plane):
-    """DampedSpring: force k (L0 - d) along the axis; damping c on the relative velocity
-    along the axis (Munk2D src/cpDampedSpring.c). An end is a body's centre, or a world
-    point on the static body (at the origin, unrotated, so local = world)."""
-    if spring.other is None:
-        a, anchor_a = space.static_body, plane.to2d(spring.anchor)
-    else:
-        a, anchor_a = bodies[spring.other], (0.0, 0.0)
-    ps = pymunk.DampedSpring(a, bodies[spring.body], anchor_a, (0.0, 0.0), spring.rest_length,
-                             spring.stiffness, spring.damping)
-    space.add(ps)
-    return ps
+def add_springs(pymunk, space, bodies, springs, plane):
+    """One DampedSpring per spring: force k (L0 - d) along the axis; damping c on the relative
+    velocity along the axis (Munk2D src/cpDampedSpring.c). An end is a body's centre, or a
+    world point on the static body (at the origin, unrotated, so local = world): other < 0."""
+    out = []
+    rows = zip(springs.body, springs.other, springs.anchor, springs.rest_length,
+               springs.stiffness, springs.damping)
+    for body, other, anchor, rest_length, stiffness, damping in rows:
+        if other < 0:
+            a, anchor_a = space.static_body, plane.to2d(anchor)
+        else:
+            a, anchor_a = bodies[int(other)], (0.0, 0.0)
+        ps = pymunk.DampedSpring(a, bodies[int(body)], anchor_a, (0.0, 0.0), float(rest_length),
+                                 float(stiffness), float(damping))
+        space.add(ps)
+        out.append(ps)
+    return out
 
 
-def add_joint(pymunk, space, bodies, joint, plane, variant):
-    """PinJoint from the static body at the anchor to the bob, distance = rod length.
-    error_bias = 0 (default variant) makes the bias coefficient 1 - 0^h = 1: each step's
-    velocity carries the full rod-length correction -(d - L)/h (src/cpPinJoint.c)."""
-    pj = pymunk.PinJoint(space.static_body, bodies[joint.body], plane.to2d(joint.anchor),
-                         (0.0, 0.0))
-    pj.distance = joint.length
-    if variant != "default_bias":
-        pj.error_bias = 0.0
-    space.add(pj)
-    return pj
+def add_joints(pymunk, space, bodies, joints, plane, default_bias):
+    """One PinJoint per rod, from the static body at the anchor to the bob, distance = rod
+    length. error_bias = 0 (unless `default_bias`) makes the bias coefficient 1 - 0^h = 1: each
+    step's velocity carries the full rod-length correction -(d - L)/h (src/cpPinJoint.c)."""
+    out = []
+    for body, anchor, length in zip(joints.body, joints.anchor, joints.length):
+        pj = pymunk.PinJoint(space.static_body, bodies[int(body)], plane.to2d(anchor),
+                             (0.0, 0.0))
+        pj.distance = float(length)
+        if not default_bias:
+            pj.error_bias = 0.0
+        space.add(pj)
+        out.append(pj)
+    return out

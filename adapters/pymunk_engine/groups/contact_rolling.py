@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.engine import ModelGroup, Sim
-from refsim.scene.rigid_shapes import rolling_scene_refusal, shapes_of
+from refsim.scene import RigidBodies, Walls
+from refsim.scene.rigid_shapes import RigidShapes, rolling_scene_refusal
 
 from ...common.contacts import per_shape_coefficients
 from ..plane import Plane
@@ -34,7 +35,7 @@ WALL_HALF_LENGTH = 1e3  # m: a segment this long each side of the wall point (py
 
 
 def claims(scene) -> bool:
-    return getattr(scene, "rigid", None) is not None and shapes_of(scene) is not None
+    return scene.part(RigidBodies) is not None and scene.part(RigidShapes) is not None
 
 
 def supports(engine, scene, integrator):
@@ -43,7 +44,7 @@ def supports(engine, scene, integrator):
     return rolling_scene_refusal(scene, WHO)
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     import pymunk
     return PymunkRollingSim(pymunk, scene, dt)
 
@@ -52,7 +53,7 @@ MODEL_GROUP = ModelGroup(
     name="rolling", build=build, claims=claims,
     parts=frozenset({"rigid", "rigid_shapes", "walls"}),
     features=frozenset({"rigid", "shapes", "walls", "contacts", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=("symplectic_euler_dk",))
+    formulations=lambda engine, scene: ("",), integrators=("symplectic_euler_dk",))
 
 
 class PymunkRollingSim(Sim):
@@ -61,7 +62,8 @@ class PymunkRollingSim(Sim):
     def __init__(self, pymunk, scene, dt):
         self.scene, self.dt, self.steps = scene, dt, 0
         self.plane = plane = Plane(scene.dim)
-        rigid, shapes = scene.rigid, shapes_of(scene)
+        self.rigid = rigid = scene.part(RigidBodies)
+        shapes, walls = scene.part(RigidShapes), scene.part(Walls)
         self.space = space = pymunk.Space(threaded=False)
         space.iterations, space.damping = ITERATIONS, 1.0
         space.collision_bias, space.collision_slop = COLLISION_BIAS, COLLISION_SLOP
@@ -80,7 +82,7 @@ class PymunkRollingSim(Sim):
             self.bodies.append(body)
             self.circles.append(circle)
         self.segments = [self._segment(pymunk, p, n)
-                         for p, n in zip(scene.wall_set.point, scene.wall_set.normal)]
+                         for p, n in zip(walls.point, walls.normal)]
         space.add(*self.bodies, *self.circles, *self.segments)
 
     def _segment(self, pymunk, point, normal):
@@ -107,7 +109,7 @@ class PymunkRollingSim(Sim):
             angle[row] = plane.spin_sign * body.angle
         turn = np.zeros((n, 4))
         turn[:, 0], turn[:, 2] = np.cos(0.5 * angle), np.sin(0.5 * angle)
-        q = _quat_product(turn, self.scene.rigid.orientation)
+        q = _quat_product(turn, self.rigid.orientation)
         return {"x": x, "v": v, "q": q, "w": w, "orientation_defect": np.zeros(n)}
 
     def settings(self):

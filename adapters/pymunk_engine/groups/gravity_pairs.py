@@ -26,7 +26,8 @@ import numpy as np
 
 from refsim.engine import ModelGroup, Sim
 from refsim.models.nbody_gravity import pair_accelerations
-from refsim.scene.gravity_pairs import gravity_pairs_of
+from refsim.scene import Particles
+from refsim.scene.gravity_pairs import GravityPairs
 
 from ..plane import Plane
 from ..settings import NATIVE_STEP
@@ -57,7 +58,7 @@ def supports(engine, scene, integrator):
     return None
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     import pymunk  # lazily: refsim works without pymunk installed
     return PymunkGravitySim(pymunk, scene, dt)
 
@@ -66,7 +67,7 @@ MODEL_GROUP = ModelGroup(
     name="gravity_pairs", build=build, claims=claims,
     parts=frozenset({"particles", "gravity_pairs"}),
     features=frozenset({"gravity_pairs", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=("symplectic_euler_dk",))
+    formulations=lambda engine, scene: ("",), integrators=("symplectic_euler_dk",))
 
 
 class PymunkGravitySim(Sim):
@@ -75,16 +76,17 @@ class PymunkGravitySim(Sim):
     def __init__(self, pymunk, scene, dt):
         self.scene, self.dt, self.steps = scene, dt, 0
         self.plane = plane = scene_plane(scene)
-        part = gravity_pairs_of(scene)
+        part, particles = scene.part(GravityPairs), scene.part(Particles)
         self.G, self.softening = part.G, part.softening
-        self.masses = np.array(scene.masses)
+        self.masses = np.array(particles.mass)
         self.space = space = pymunk.Space(threaded=False)
         space.iterations, space.damping = ITERATIONS, 1.0
         space.gravity = plane.to2d(scene.gravity)
         self.bodies = []
-        for i, b in enumerate(scene.bodies):  # build time: one pymunk body per particle
-            body = pymunk.Body(float(b.mass), math.inf)
-            body.position, body.velocity = plane.to2d(b.position), plane.to2d(b.velocity)
+        rows = zip(particles.mass, particles.position, particles.velocity)
+        for i, (mass, position, velocity) in enumerate(rows):  # one pymunk body per particle
+            body = pymunk.Body(float(mass), math.inf)
+            body.position, body.velocity = plane.to2d(position), plane.to2d(velocity)
             body.velocity_func = self._velocity_func(pymunk.Body.update_velocity, i)
             self.bodies.append(body)
         space.add(*self.bodies)

@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.engine import ModelGroup, Sim
-from refsim.scene.pivots import check_on_anchor, pivots_of
+from refsim.scene import RigidBodies
+from refsim.scene.pivots import RigidPivots, check_on_anchor
 
 from ..plane import Plane
 from ..space import ITERATIONS
@@ -55,12 +56,12 @@ def _world_inertia(rigid) -> np.ndarray:
 
 
 def claims(scene) -> bool:
-    return getattr(scene, "rigid", None) is not None and pivots_of(scene) is not None
+    return scene.part(RigidBodies) is not None and scene.part(RigidPivots) is not None
 
 
 def plane_refusal(scene) -> str | None:
     """None when every pivoted body moves in pymunk's plane, else why not ("pymunk is 2D")."""
-    rigid, pivots = scene.rigid, pivots_of(scene)
+    rigid, pivots = scene.part(RigidBodies), scene.part(RigidPivots)
     k = Plane(scene.dim).normal_axis
     others = [a for a in range(3) if a != k]
     inertia_w = _world_inertia(rigid)
@@ -78,7 +79,7 @@ def plane_refusal(scene) -> str | None:
 
 
 def supports(engine, scene, integrator):
-    pivots, rigid = pivots_of(scene), scene.rigid
+    pivots, rigid = scene.part(RigidPivots), scene.part(RigidBodies)
     try:
         check_on_anchor(pivots, rigid)
     except ValueError as exc:
@@ -89,7 +90,7 @@ def supports(engine, scene, integrator):
     return plane_refusal(scene)
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     import pymunk
     return PymunkPivotSim(pymunk, scene, dt)
 
@@ -97,7 +98,7 @@ def build(engine, scene, dt, integrator, variant):
 MODEL_GROUP = ModelGroup(
     name="pivots", build=build, claims=claims, parts=frozenset({"rigid", "rigid_pivots"}),
     features=frozenset({"rigid", "pivots", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=("symplectic_euler_dk",))
+    formulations=lambda engine, scene: ("",), integrators=("symplectic_euler_dk",))
 
 
 class PymunkPivotSim(Sim):
@@ -106,7 +107,8 @@ class PymunkPivotSim(Sim):
     def __init__(self, pymunk, scene, dt):
         self.scene, self.dt, self.steps = scene, dt, 0
         self.plane = plane = Plane(scene.dim)
-        self.pivots, rigid = pivots_of(scene), scene.rigid
+        self.pivots, self.rigid = scene.part(RigidPivots), scene.part(RigidBodies)
+        rigid = self.rigid
         self.order = self.pivots.body
         self.moments = _world_inertia(rigid)[self.order, plane.normal_axis, plane.normal_axis]
         self.space = space = pymunk.Space(threaded=False)
@@ -132,7 +134,7 @@ class PymunkPivotSim(Sim):
             space_step(dt)
 
     def _observe(self):
-        n, plane = len(self.scene.rigid), self.plane
+        n, plane = len(self.rigid), self.plane
         i, k = plane.axes
         normal = plane.normal_axis
         x, v, w = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
@@ -144,7 +146,7 @@ class PymunkPivotSim(Sim):
             angle[row] = plane.spin_sign * body.angle
         turn = np.zeros((n, 4))
         turn[:, 0], turn[:, 1 + normal] = np.cos(0.5 * angle), np.sin(0.5 * angle)
-        q = _quat_product(turn, self.scene.rigid.orientation)
+        q = _quat_product(turn, self.rigid.orientation)
         gap = x[self.order] + _rotate(q[self.order], self.pivots.body_point) - self.pivots.anchor
         return {"x": x, "v": v, "q": q, "w": w, "orientation_defect": np.zeros(n),
                 "pivot_gap": np.linalg.norm(gap, axis=1)}

@@ -2,7 +2,7 @@
 `SpringNetwork` whose motion stays in the x-z plane (pymunk is 2D: refsim (x, z) -> pymunk
 (x, y), observed y = 0).
 
-Formulations (engine variants, named in settings "formulation"):
+Formulations (named in settings "formulation"):
 - "" (springs; networks without hinges): point-mass bodies and `DampedSpring`s, drag as a
   force (adapters/pymunk_engine/network_springs.py);
 - "space_damping" (the same, offered with drag on one node mass): drag as pymunk's global
@@ -24,6 +24,7 @@ from refsim_adapters.common.spring_network import (
     scene_reason,
 )
 from refsim.engine import ModelGroup
+from refsim.scene import SpringNetwork
 
 from ..network_links import RIGID_LINKS, links_reason
 from ..network_springs import SPACE_DAMPING, uniform_mass
@@ -52,15 +53,15 @@ def supports(engine, scene, integrator):
     reason = _plane_reason(scene)
     if reason:
         return reason
-    net = scene.networks[0]
+    net = scene.parts_of(SpringNetwork)[0]
     if len(net.dihedrals):
         return ("pymunk is 2D: dihedral bending (out-of-plane folding of triangles) has no "
                 "counterpart in a plane; pymunk runs networks without dihedrals")
     return links_reason(net) if len(net.hinges) else None
 
 
-def variants(engine, scene):
-    net = scene.networks[0]
+def formulations(engine, scene):
+    net = scene.parts_of(SpringNetwork)[0]
     if len(net.hinges):
         return (RIGID_LINKS,)
     if scene.linear_drag > 0 and uniform_mass(net):
@@ -68,16 +69,17 @@ def variants(engine, scene):
     return ("",)
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     import pymunk  # lazily: refsim works without pymunk installed
-    if variant == RIGID_LINKS:
+    net = scene.parts_of(SpringNetwork)[0]
+    if formulation == RIGID_LINKS:
         from ..network_links import PymunkLinkChainSim
-        return PymunkLinkChainSim(pymunk, scene, dt)
+        return PymunkLinkChainSim(pymunk, scene, dt, net)
     from ..network_springs import PymunkSpringNetworkSim
-    return PymunkSpringNetworkSim(pymunk, scene, dt, variant)
+    return PymunkSpringNetworkSim(pymunk, scene, dt, net, formulation)
 
 
 MODEL_GROUP = ModelGroup(name="spring_network", build=build, claims=claims,
                          parts=frozenset({"networks"}),
                          features=frozenset({"networks", "gravity", "drag"}),
-                         supports=supports, variants=variants, integrators=INTEGRATORS)
+                         supports=supports, formulations=formulations, integrators=INTEGRATORS)

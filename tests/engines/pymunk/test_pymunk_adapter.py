@@ -17,7 +17,7 @@ from refsim.registry import get_engine
 from refsim.registry import get_case
 from refsim.run.metrics import bisect_limit, convergence_order
 from refsim.run.job import Job, run_job
-from refsim.scene import Body, Joint, Scene, Spring
+from refsim.scene import Body, Joint, Joints, Particles, Scene, Spring, Springs
 
 DK = "symplectic_euler_dk"
 PYMUNK, REFSIM = get_engine("pymunk"), get_engine("refsim")
@@ -252,7 +252,7 @@ def test_explicit_instability_is_reported_as_diverged():
 
 # contract: plane mapping, refusals, bad input --------------------------------------------------
 def test_refuses_motion_out_of_the_xz_plane():
-    scene = Scene(bodies=(Body(1.0, (0.0, 0.0, 1.0), velocity=(0.0, 1.0, 0.0)),),
+    scene = Scene(parts=(Particles.of((Body(1.0, (0.0, 0.0, 1.0), velocity=(0.0, 1.0, 0.0)),)),),
                   gravity=(0.0, 0.0, -9.81))
     reason = PYMUNK.supports(scene, DK)
     assert reason and "x-z plane" in reason
@@ -263,13 +263,14 @@ def test_refuses_motion_out_of_the_xz_plane():
 
 def test_two_d_scene_maps_x_y_directly():
     """A 2D (y-up) spring along y with a pendulum-free setup: pymunk's own frame."""
-    scene = Scene(bodies=(Body(1.0, (0.0, 1.1, 0.0)),), dim=2,
-                  springs=(Spring(body=0, stiffness=100.0, rest_length=1.0),))
+    scene = Scene(parts=(Particles.of((Body(1.0, (0.0, 1.1, 0.0)),)),
+                         Springs.of((Spring(body=0, stiffness=100.0, rest_length=1.0),))), dim=2)
     assert PYMUNK.supports(scene, DK) is None
     assert _lockstep(scene, 1e-3, 100, 5)[0] < 1e-12
-    tilted = Scene(bodies=(Body(1.0, (0.0, -1.0, 0.0)),), dim=2, gravity=(0.0, -9.81, 0.0),
-                   joints=(Joint(body=0, anchor=(0.0, 0.0, 0.0), length=1.0,
-                                 axis=(0.0, 1.0, 0.0)),))
+    tilted = Scene(parts=(Particles.of((Body(1.0, (0.0, -1.0, 0.0)),)),
+                          Joints.of((Joint(body=0, anchor=(0.0, 0.0, 0.0), length=1.0,
+                                           axis=(0.0, 1.0, 0.0)),))),
+                   dim=2, gravity=(0.0, -9.81, 0.0))
     assert "hinge axes along z" in PYMUNK.supports(tilted, DK)
 
 
@@ -286,8 +287,8 @@ def test_observe_shapes_and_constraint():
 
 def test_bad_variant_and_dt_raise_value_error():
     c, p = _params("pendulum")
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         PYMUNK.build(c.scene(p), 1e-3, DK, "kkt")
     with pytest.raises(ValueError, match="dt"):
         PYMUNK.build(c.scene(p), -1.0, DK)
-    assert PYMUNK.variants(c.scene(p)) == ("", "default_bias")
+    assert PYMUNK.formulations(c.scene(p)) == ("", "default_bias")

@@ -13,8 +13,7 @@ import pymunk  # noqa: F401  (fail, never skip, without the engine)
 from gravity_scenes import TWO_PI, kepler
 
 from refsim.registry import get_engine
-from refsim.scene import Scene
-from refsim.scene.particles import Particles
+from refsim.scene import Particles
 
 ENGINE = get_engine("pymunk")
 INTEGRATOR = "symplectic_euler_dk"
@@ -27,9 +26,8 @@ def test_planar_gravity_scenes_in_pymunks_plane_and_3d_ones_refused():
     s = ENGINE.build(scene, 0.01, INTEGRATOR, "").settings()
     assert s["space"]["damping"] == 1.0 and list(s["space"]["gravity"]) == [0.0, 0.0]
     assert s["plane"].startswith("refsim (x, y)")
-    p = scene.particles
-    tilted = Scene(bodies=Particles(p.mass, p.position, p.velocity + [0.0, 0.0, 0.1]),
-                   extra=scene.extra)
+    p = scene.part(Particles)
+    tilted = scene.with_part(Particles(p.mass, p.position, p.velocity + [0.0, 0.0, 0.1]))
     assert ENGINE.supports(tilted, INTEGRATOR).startswith("pymunk is 2D")
 
 
@@ -38,9 +36,8 @@ def test_xz_plane_scene_maps_onto_pymunk_plane():
     only the axes are renamed."""
     scene = kepler(0.5)
     swap = [0, 2, 1]
-    p = scene.particles
-    xz = Scene(bodies=Particles(p.mass, p.position[:, swap], p.velocity[:, swap]),
-               extra=scene.extra)
+    p = scene.part(Particles)
+    xz = scene.with_part(Particles(p.mass, p.position[:, swap], p.velocity[:, swap]))
     a = gravity_scenes.run(ENGINE, scene, INTEGRATOR, "", TWO_PI, 200)
     b = gravity_scenes.run(ENGINE, xz, INTEGRATOR, "", TWO_PI, 200)
     assert np.array_equal(a["x"], b["x"][:, swap]) and np.array_equal(a["v"], b["v"][:, swap])

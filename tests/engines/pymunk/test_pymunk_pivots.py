@@ -14,6 +14,7 @@ from pivot_scenes import EPS, G, L, M, pivoted, rod, run, top
 from scipy.spatial.transform import Rotation
 
 from refsim.registry import get_engine
+from refsim.scene import RigidBodies
 
 ENGINE = get_engine("pymunk")
 DK = "symplectic_euler_dk"
@@ -38,7 +39,7 @@ def test_settings_report_the_space_and_the_rod_is_observed_at_start():
     assert settings["space"]["damping"] == 1.0 and settings["space"]["gravity"] == [0.0, -G]
     assert settings["bodies"]["moment"] == [pytest.approx(M * L * L / 12, rel=4 * EPS)]
     obs = sim.observe()
-    r = scene.rigid
+    r = scene.part(RigidBodies)
     for name, want in (("x", r.position), ("v", r.velocity), ("q", r.orientation),
                        ("w", r.angular_velocity)):
         np.testing.assert_allclose(obs[name], want, rtol=0, atol=4 * EPS)

@@ -18,7 +18,7 @@ import pytest
 from sphere_cases import case_of, params
 
 from refsim.registry import get_engine
-from refsim.scene import Body, ContactModel, Scene, Wall
+from refsim.scene import Body, ContactModel, Particles, Scene, Wall, Walls
 from refsim.testing import accuracy
 
 DK = "symplectic_euler_dk"
@@ -134,12 +134,12 @@ def _cradle_scene(gap):
     """The case's cradle with the resting spheres' gaps set to `gap` (m) exactly."""
     c, p = params("cradle")
     scene = c.scene(p)
-    x1 = scene.bodies[1].position[0]
-    bodies = list(scene.bodies)
+    x1 = scene.part(Particles).position[1][0]
+    bodies = list(scene.part(Particles).to_records())
     for k in range(2, 5):
         bodies[k] = dataclasses.replace(bodies[k], position=(
             x1 + (k - 1) * (2 * p["radius"] + gap), 0, 0))
-    return dataclasses.replace(scene, bodies=tuple(bodies))
+    return scene.with_part(Particles.of(tuple(bodies)))
 
 
 @pytest.mark.parametrize("gap, iterations, expected", [
@@ -190,7 +190,7 @@ def test_moment_is_the_spheres_not_recomputed_from_the_circle():
     c, p = params("head_on")
     scene = c.scene(p)
     sim = PYMUNK.build(scene, 1e-3, DK)
-    assert [b.moment for b in sim.bodies] == [b.inertia for b in scene.bodies]
+    assert [b.moment for b in sim.bodies] == list(scene.part(Particles).inertia)
     assert sim.bodies[0].moment == pytest.approx(0.4 * 1.0 * 0.1 ** 2, rel=1e-15)
     assert pymunk.moment_for_circle(1.0, 0, 0.1) == pytest.approx(0.5 * 0.01)
 
@@ -239,7 +239,8 @@ def _wall_scene(dim, e, v=(1.0, 0.5)):
     pos = (0.0, 0.0, 0.0)
     vel = (v[0], 0.0, v[1]) if dim == 3 else (v[0], v[1], 0.0)
     body = Body(mass=2.0, position=pos, velocity=vel, radius=0.1, inertia=0.4 * 2.0 * 0.01)
-    return Scene(bodies=(body,), walls=(Wall(point=(1.0, 0.0, 0.0), normal=(-1.0, 0.0, 0.0)),),
+    return Scene(parts=(Particles.of((body,)),
+                        Walls.of((Wall(point=(1.0, 0.0, 0.0), normal=(-1.0, 0.0, 0.0)),))),
                  contact=ContactModel(restitution=e, friction=0.0), dim=dim)
 
 
@@ -268,8 +269,8 @@ def test_spin_round_trips_with_the_plane_mapping():
 def test_walls_need_a_contact_model_and_spheres():
     scene = _wall_scene(3, 1.0)
     assert "contact model" in PYMUNK.supports(dataclasses.replace(scene, contact=None))
-    point = dataclasses.replace(scene.bodies[0], radius=0.0)
-    assert "radius > 0" in PYMUNK.supports(dataclasses.replace(scene, bodies=(point,)))
+    point = dataclasses.replace(scene.part(Particles).to_records()[0], radius=0.0)
+    assert "radius > 0" in PYMUNK.supports(scene.with_part(Particles.of((point,))))
 
 
 def test_building_a_thousand_spheres_is_fast():
@@ -285,7 +286,7 @@ def test_building_a_thousand_spheres_is_fast():
     walls = tuple(Wall(point=pt, normal=nm) for pt, nm in (
         ((0, 0, 0), (1, 0, 0)), ((side, 0, 0), (-1, 0, 0)),
         ((0, 0, 0), (0, 0, 1)), ((0, 0, side), (0, 0, -1))))
-    scene = Scene(bodies=bodies, walls=walls, contact=ContactModel())
+    scene = Scene(parts=(Particles.of(bodies), Walls.of(walls)), contact=ContactModel())
     t0 = time.perf_counter()
     sim = PYMUNK.build(scene, 1e-3, DK)
     assert time.perf_counter() - t0 < 1.0

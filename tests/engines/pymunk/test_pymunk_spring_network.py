@@ -12,8 +12,7 @@ from scipy.optimize import root
 from refsim_adapters.refsim_engine.groups.spring_network import NetworkSim
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
-from refsim.scene import Scene
-from refsim.scene.networks import SpringNetwork
+from refsim.scene import Scene, SpringNetwork
 
 EPS = np.finfo(float).eps
 DK = "symplectic_euler_dk"
@@ -33,7 +32,7 @@ def string_scene(n_free=10, k=100.0, m=0.01, spacing=0.1, amp=1e-2, mode=1):
     x[1:-1, 2] = amp * np.sin(mode * np.pi * np.arange(1, n_free + 1) / (n_free + 1))
     net = SpringNetwork(positions=x, masses=m, edges=_chain_edges(n), stiffness=k,
                         rest_length=0.0, pinned=[0, n - 1])
-    return Scene(networks=(net,), gravity=(0, 0, 0))
+    return Scene(parts=(net,), gravity=(0, 0, 0))
 
 
 def chain_scene(n_links=10, span=0.8, length=1.0, k=500.0, m=0.05, c=0.05, drag=0.02):
@@ -42,7 +41,7 @@ def chain_scene(n_links=10, span=0.8, length=1.0, k=500.0, m=0.05, c=0.05, drag=
     x[:, 0] = np.linspace(0, span, n)
     net = SpringNetwork(positions=x, masses=m, edges=_chain_edges(n), stiffness=k,
                         rest_length=length / n_links, damping=c, pinned=[0, n - 1])
-    return Scene(networks=(net,), gravity=(0, 0, -9.81), linear_drag=drag)
+    return Scene(parts=(net,), gravity=(0, 0, -9.81), linear_drag=drag)
 
 
 def hair_scene(n_links=8, link=0.05, m=0.01, tip=0.05, kb=1.0, drag=0.2, turns=None,
@@ -59,7 +58,7 @@ def hair_scene(n_links=8, link=0.05, m=0.01, tip=0.05, kb=1.0, drag=0.2, turns=N
     net = SpringNetwork(positions=x, masses=masses, edges=_chain_edges(n), stiffness=1e5,
                         hinges=hinges, hinge_stiffness=kb, hinge_rest_angle=rest,
                         pinned=[0, 1])
-    return Scene(networks=(net,), gravity=(0, 0, gravity), linear_drag=drag)
+    return Scene(parts=(net,), gravity=(0, 0, gravity), linear_drag=drag)
 
 
 def run_pair(scene, dt, steps, variant=""):
@@ -89,7 +88,7 @@ def test_string_mode_oscillates_at_the_discrete_normal_mode_frequency():
     w = 2 * np.sqrt(k / m) * np.sin(np.pi / (2 * (n_free + 1)))
     step_map = np.array([[1.0, h], [-h * w * w, 1.0 - h * h * w * w]])
     sim = get_engine("pymunk").build(scene, h, DK)
-    shape = scene.networks[0].positions[:, 2]
+    shape = scene.part(SpringNetwork).positions[:, 2]
     for _ in range(5):
         sim.step(steps // 5)
         z_amp, v_amp = np.linalg.matrix_power(step_map, sim.steps) @ [amp, 0.0]
@@ -102,10 +101,10 @@ def test_string_mode_oscillates_at_the_discrete_normal_mode_frequency():
 
 
 def _model_equilibrium(scene):
-    system = NetworkSystem(scene.networks[0], scene.gravity, scene.linear_drag)
+    system = NetworkSystem(scene.part(SpringNetwork), scene.gravity, scene.linear_drag)
     free = system.free
-    start = np.array(scene.networks[0].positions[free])
-    span = scene.networks[0].positions[:, 0].max()
+    start = np.array(scene.part(SpringNetwork).positions[free])
+    span = scene.part(SpringNetwork).positions[:, 0].max()
     start[:, 2] -= 0.3 * np.sin(np.pi * start[:, 0] / span)  # sagging: the stable branch
     zero = np.zeros(start.size)
     sol = root(lambda q: system.accel(0.0, q, zero), start.reshape(-1), tol=1e-14)
@@ -124,13 +123,13 @@ def test_hanging_chain_equilibrium_is_the_step_fixed_point(variant):
     "space_damping". It must stay put to round-off."""
     h, steps = 1e-3, 2000
     scene = chain_scene()
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     d = np.exp(-scene.linear_drag * h / net.masses[0]) if variant else 1.0
-    heavier = Scene(networks=(net,), gravity=tuple(np.array(scene.gravity) / d))
+    heavier = Scene(parts=(net,), gravity=tuple(np.array(scene.gravity) / d))
     x_eq, free = _model_equilibrium(heavier)
     x0 = np.array(net.positions)
     x0[free] = x_eq
-    at_rest = Scene(networks=(SpringNetwork(
+    at_rest = Scene(parts=(SpringNetwork(
         positions=x0, masses=net.masses, edges=net.edges, stiffness=net.stiffness,
         rest_length=net.rest_length, damping=net.damping, pinned=net.pinned),),
         gravity=scene.gravity, linear_drag=scene.linear_drag)
@@ -158,7 +157,7 @@ def test_damped_chain_differs_from_the_in_house_step_at_first_order():
 def _inextensible_equilibrium(scene, guess):
     """Hinge chain with rigid links, clamped root along x: kb tau_i balances the moment of
     the outboard weights about node i (the exact discrete equilibrium)."""
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     kb, link = float(net.hinge_stiffness[0]), float(net.rest_length[0])
     weight = net.masses * -scene.gravity[2]
 
@@ -205,25 +204,25 @@ def test_curved_hair_at_its_signed_rest_angles_stays_put():
     sim = get_engine("pymunk").build(scene, 1e-3, DK, "rigid_links")
     sim.step(1000)
     got = sim.observe()
-    x0 = scene.networks[0].positions
+    x0 = scene.part(SpringNetwork).positions
     assert np.abs(got["x"] - x0).max() <= 1000 * ULPS_PER_STEP * EPS * np.abs(x0).max()
 
 
 def test_refusals_say_why():
     engine = get_engine("pymunk")
     assert "semi-implicit Euler" in engine.supports(string_scene(), "rk4")
-    net = string_scene().networks[0]
-    membrane = Scene(networks=(SpringNetwork(
+    net = string_scene().part(SpringNetwork)
+    membrane = Scene(parts=(SpringNetwork(
         positions=np.array(net.positions)[:, [0, 2, 1]] + [0, 0, 0.01], masses=0.01,
         edges=net.edges, stiffness=100.0, rest_length=0.0, pinned=net.pinned),),
         gravity=(0, 0, 0))
     assert "pymunk is 2D" in engine.supports(membrane)
-    bent = hair_scene().networks[0]
-    loose = Scene(networks=(SpringNetwork(
+    bent = hair_scene().part(SpringNetwork)
+    loose = Scene(parts=(SpringNetwork(
         positions=bent.positions, masses=bent.masses, edges=bent.edges, stiffness=1e5,
         hinges=bent.hinges, hinge_stiffness=1.0, pinned=[0, 8]),), gravity=(0, 0, -9.81))
     assert "root prefix" in engine.supports(loose)
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         engine.build(hair_scene(), 1e-3, DK, "")
 
 
@@ -237,4 +236,4 @@ def test_settings_are_json_and_name_the_formulation(scene):
         described = json.loads(json.dumps(sim.settings()))
         assert described["formulation"] == (variant or "springs")
         assert described["integrator"]["name"] == DK
-        assert sim.observe()["x"].shape == (len(scene.networks[0]), 3)
+        assert sim.observe()["x"].shape == (len(scene.part(SpringNetwork)), 3)
