@@ -24,10 +24,15 @@ Facts applied (docs/engine_notes.md#mujoco, mujoco 4.0.0), each reported in `Sim
 Sphere scenes (features "contacts", "walls") are described in `spheres` (the MJCF and the
 contact parameters) and `restitution` (the calibration of the contact damping).
 
+Every scene runs through a model group (`groups/`, one module each): "particles" (point masses,
+springs, rods, drag), "spheres" (spheres under a contact model, walls), "gravity_pairs",
+"rigid", "pivots", "contact_rolling" and "spring_network"; `engine` only declares who the
+engine is and why it refuses what no group runs (`refusals`: grids, SPH fluid, meshes, emitter).
+
 Modules, one per concern:
 - `methods`: the MuJoCo integrators as refsim declares them;
-- `plans`: scene -> one `BodyPlan` per body (the single source of `supports` reasons), with
-  `point_masses` (particles, springs, hinges) and `spheres` (free spheres, contacts, walls);
+- `body_plan`: one scene body as a MuJoCo body (`BodyPlan`), built by `point_masses`
+  (particles, springs, hinges) and `spheres` (free spheres, contacts, walls) for the groups;
 - `contact_params`, `restitution`: contact stiffness, friction damping, restitution calibration;
 - `mjcf`: the MJCF text of a plan;
 - `sim`: stepping, failure detection, observation and settings; `engine`: the Engine.

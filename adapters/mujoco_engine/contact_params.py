@@ -1,4 +1,4 @@
-"""Sphere contact parameters (mujoco 4.0.0): stiffness, impedance per variant, solver, friction.
+"""Sphere contact parameters (mujoco 4.0.0): stiffness, impedance per formulation, solver, friction.
 
 Contacts are MuJoCo's soft contacts in the direct form solref = (-K, -B) with a flat impedance
 d (solimp dmin = dmax); see `spheres` for the model and `restitution` for how B is found."""

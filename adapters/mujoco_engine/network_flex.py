@@ -41,6 +41,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsim.scene import SpringNetwork
+
 from .mjcf import xml_floats
 from .network_mjcf import AXES, SOLVER_ITERATIONS, SOLVER_TOLERANCE, kept_edges
 from .point_masses import POINT_INERTIA
@@ -185,7 +187,7 @@ def _drag_tendons(spec, free, drag: float):
 def flex_model(scene, dt, integrator_xml, free):
     """Compiled MjModel of formulation "flex" and the rod parameters used."""
     import mujoco
-    net = scene.networks[0]
+    net = scene.parts_of(SpringNetwork)[0]
     rod = rod_parameters(net)
     spec = mujoco.MjSpec.from_string(_flex_xml(scene, dt, integrator_xml, net, rod))
     _vertex_bodies(spec, net, free)

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsim.scene import SpringNetwork
+
 from .mjcf import xml_floats
 from .point_masses import POINT_INERTIA
 
@@ -46,9 +48,9 @@ def _tendon_xml(k: int, i: int, j: int, stiffness: float, rest: float, damping: 
 
 
 def network_xml(scene, dt: float, integrator_xml: str, free: np.ndarray) -> str:
-    """MJCF of formulation "tendon" for scene.networks[0] (build time only: one string per
+    """MJCF of formulation "tendon" for the scene's network (build time only: one string per
     node and per edge)."""
-    net = scene.networks[0]
+    net = scene.parts_of(SpringNetwork)[0]
     x, m, drag = net.positions, net.masses, float(scene.linear_drag)
     nodes = "".join(_node_xml(i, x[i], float(m[i]), drag) for i in np.flatnonzero(free))
     pins = "".join(f'<site name="s{i}" pos="{xml_floats(x[i])}"/>'

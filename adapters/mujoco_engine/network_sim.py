@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 
+from refsim.scene import SpringNetwork
 from refsim_adapters.common.spring_network import free_mask, observation
 
 from .network_mjcf import SOLVER_ITERATIONS, SOLVER_TOLERANCE, kept_edges, network_xml
@@ -30,7 +31,7 @@ class MujocoNetworkSim(MujocoSim):
         self.treated_implicitly = treated_implicitly
         self.plans, self.spheres, self.contact = [], False, None
         self.steps, self.failure, self._messages = 0, None, []
-        self.net = scene.networks[0]
+        self.net = scene.parts_of(SpringNetwork)[0]
         self.free = free_mask(self.net)
         self.edges = kept_edges(self.net, self.free)
         t0 = time.perf_counter()

@@ -1,15 +1,15 @@
-"""Point masses without contacts: free particles (3 slides), masses on a spring to a fixed
-anchor (1 slide joint with stiffness) and masses on a rod (1 hinge through the anchor).
+"""Point masses without contacts, one `BodyPlan` each (group "particles" decides which): a free
+particle (3 slides), a mass on a spring to a fixed anchor (1 slide joint with stiffness) and a
+mass on a rod (1 hinge through the anchor).
 
-Each check raises ValueError with the one-sentence reason `supports` reports."""
+Each builder takes the body record, its spring or rod record and the scene-wide values it needs,
+and raises ValueError with the one-sentence reason `supports` reports."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from ..common.checks import body_to_body_springs
-from ..common.hinges import rod_start_refusal
 from .body_plan import BodyPlan
 
 # kg m^2: docs/engine_notes.md#mujoco-point-mass-inertia (1e-12 clean, 1e-9 a 1e-8 error
@@ -19,67 +19,31 @@ _GEOMETRY_RTOL = 1e-9  # a spring body must stay on its anchor line to this (rod
 WHO = "mujoco adapter"  # how the reasons name this engine
 
 
-def point_mass_plans(scene) -> list[BodyPlan]:
-    """One plan per body: a hinge for a rod body, a slide for a spring body, else 3 slides."""
-    springs = _springs_by_body(scene)
-    joints = _joints_by_body(scene, springs)
-    reason = rod_start_refusal(scene, WHO)
-    if reason:
-        raise ValueError(reason)
-    plans = []
-    for i, body in enumerate(scene.bodies):
-        if i in joints:
-            plans.append(_hinge_plan(scene, i, body, joints[i]))
-        elif i in springs:
-            plans.append(_spring_plan(scene, i, body, springs[i]))
-        else:
-            plans.append(BodyPlan("particle", i, body.mass, body.position,
-                                  damping=scene.linear_drag, qvel0=body.velocity))
-    return plans
+def particle_plan(i, body, drag) -> BodyPlan:
+    """A free point mass: 3 slides, each damped by the linear drag b."""
+    return BodyPlan("particle", i, body.mass, body.position, damping=drag,
+                    qvel0=body.velocity)
 
 
-def _springs_by_body(scene) -> dict:
-    springs = {}
-    reason = body_to_body_springs(scene, WHO, " (a joint spring needs a fixed anchor)")
-    if reason:
-        raise ValueError(reason)
-    for s in scene.springs:
-        if s.body in springs:
-            raise ValueError("mujoco adapter: at most one spring per body (a slide-joint "
-                             "spring moves along one line)")
-        springs[s.body] = s
-    return springs
-
-
-def _joints_by_body(scene, springs) -> dict:
-    joints = {}
-    for j in scene.joints:
-        if j.body in joints or j.body in springs:
-            raise ValueError("mujoco adapter: a body may carry one rod or one spring, not both "
-                             "or several")
-        joints[j.body] = j
-    return joints
-
-
-def _hinge_plan(scene, i, body, joint) -> BodyPlan:
+def hinge_plan(i, body, joint, drag) -> BodyPlan:
     """Hinge through the anchor; qpos = 0 is the initial pose, qvel the initial rate (the
     start geometry was checked by rod_start_refusal)."""
     r0 = np.subtract(body.position, joint.anchor)
     axis, length = np.asarray(joint.axis), joint.length
     omega = float(np.cross(r0, body.velocity) @ axis) / length ** 2
     return BodyPlan("hinge", i, body.mass, body.position, axis=tuple(axis),
-                    joint_pos=tuple(-r0), damping=scene.linear_drag * length ** 2,
+                    joint_pos=tuple(-r0), damping=drag * length ** 2,
                     qvel0=(omega,))
 
 
-def _spring_plan(scene, i, body, spring) -> BodyPlan:
+def spring_plan(i, body, spring, gravity, drag) -> BodyPlan:
     """Slide along u = (x0 - anchor)/d0; spring force -k (q + d0 - L0) = -k (d - L0)."""
     r0 = np.subtract(body.position, spring.anchor)
     d0 = float(np.linalg.norm(r0))
     if d0 == 0:
         raise ValueError("mujoco adapter: a spring body may not start on its anchor")
     u = r0 / d0
-    v0, g = np.asarray(body.velocity), np.asarray(scene.gravity)
+    v0, g = np.asarray(body.velocity), np.asarray(gravity)
     if np.linalg.norm(v0 - (v0 @ u) * u) > _GEOMETRY_RTOL * max(np.linalg.norm(v0), 1.0) or \
             np.linalg.norm(g - (g @ u) * u) > _GEOMETRY_RTOL * max(np.linalg.norm(g), 1.0):
         raise ValueError("mujoco adapter: a spring body must move along the anchor-body line "
@@ -90,7 +54,7 @@ def _spring_plan(scene, i, body, spring) -> BodyPlan:
                          "slide-joint spring does not model")
     return BodyPlan("spring", i, body.mass, body.position, axis=tuple(u),
                     stiffness=spring.stiffness, springref=spring.rest_length - d0,
-                    damping=spring.damping + scene.linear_drag, qvel0=(float(v0 @ u),))
+                    damping=spring.damping + drag, qvel0=(float(v0 @ u),))
 
 
 def _closest_approach(m, k, rest, g_u, d0, v0):

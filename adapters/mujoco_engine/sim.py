@@ -1,4 +1,7 @@
-"""A compiled MuJoCo model of one scene: stepping, failure detection, observation, settings."""
+"""A compiled MuJoCo model of one scene: stepping, failure detection, observation, settings.
+
+`MujocoSim` takes what its model group decided: the body plans, the contact setup of a sphere
+scene (None: contacts off, point masses) and the number of rods (hinges) among the plans."""
 from __future__ import annotations
 
 import time
@@ -10,22 +13,25 @@ from refsim.engine import Sim
 from .methods import METHODS
 from .mjcf import scene_xml
 from .point_masses import POINT_INERTIA
-from .spheres import ContactSetup, rotate
+from .spheres import rotate
 
 BAD_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC", "mjWARN_INERTIA",
                 "mjWARN_CONTACTFULL", "mjWARN_CNSTRFULL")  # full buffers drop contacts
 
 
 class MujocoSim(Sim):
-    def __init__(self, scene, plans, dt, integrator, variant=""):
+    rods = 0  # hinges among the plans: observed as a zero "constraint" each
+
+    def __init__(self, scene, plans, dt, integrator, contact=None, rods=0):
+        """`contact`: a callable () -> ContactSetup for a sphere scene (its restitution
+        calibration counts as compilation), None for point masses without contacts."""
         import mujoco
         self.mj, self.scene, self.plans, self.dt = mujoco, scene, plans, dt
         self.integrator, self.method = integrator, METHODS[integrator]
         self.steps, self.failure, self._messages = 0, None, []
-        self.spheres = scene.contact is not None
+        self.spheres, self.rods = contact is not None, rods
         t0 = time.perf_counter()  # the restitution calibration (cached) counts as compilation
-        self.contact = ContactSetup.make(scene, dt, integrator, variant) if self.spheres \
-            else None
+        self.contact = contact() if self.spheres else None
         xml = scene_xml(scene, plans, dt, self.method, self.contact)
         self.model = mujoco.MjModel.from_xml_string(xml)
         self.compile_s = time.perf_counter() - t0
@@ -101,8 +107,8 @@ class MujocoSim(Sim):
             mj.mj_objectVelocity(m, d, mj.mjtObj.mjOBJ_BODY, i + 1, self._vel, 0)
             v[i] = self._vel[3:]
         out = {"x": x, "v": v}
-        if self.scene.joints:
-            out["constraint"] = np.zeros(len(self.scene.joints))  # generalized coordinates
+        if self.rods:
+            out["constraint"] = np.zeros(self.rods)  # generalized coordinates
         return out
 
     def _observe_spheres(self):
@@ -129,7 +135,7 @@ class MujocoSim(Sim):
         engine's scene-independent `equivalents` (refsim stress's theory): `discrete` solves
         joint stiffness and damping implicitly but leaves gravity explicit, so on a hinge,
         whose restoring force is gravity's torque, it is the symplectic Euler step."""
-        if self.integrator == "discrete" and len(self.scene.joint_set):
+        if self.integrator == "discrete" and self.rods:
             return {"stability_equivalent": "symplectic_euler",
                     "stability_equivalent_reason": "discrete: gravity's torque on the hinge is "
                     "explicit (only joint stiffness and damping are implicit), nothing is "

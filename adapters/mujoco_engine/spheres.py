@@ -1,4 +1,5 @@
-"""Sphere scenes (features "contacts", "walls"): free spheres, walls, soft contacts.
+"""Sphere scenes (features "contacts", "walls"; group "spheres" decides which scenes and
+passes the arguments): free spheres, walls, soft contacts.
 
 One free-jointed body per sphere with an explicit `<inertial>` (scene mass, diaginertia = the
 scene's 2/5 m r^2; `inertiafromgeom` off, checked after compiling) and a sphere geom; each wall
@@ -14,7 +15,7 @@ solref = (-K, -B) with a flat impedance d (solimp dmin = dmax):
   (two spheres head-on at the scene's dt with the scene's integrator), averaged over 32
   contact onsets within a step, equals e; the largest deviation over onsets is reported as
   the residual (cached per process; `restitution`);
-- d decides how simultaneous contacts couple (engine variants): "" d = 1e-4, one linear
+- d decides how simultaneous contacts couple (the formulations): "" d = 1e-4, one linear
   spring-dashpot per contact (DEM); "coupled" d = 0.9999, MuJoCo's constraint regime;
 - friction mu > 0: condim 3, elliptic cone; the friction rows' damping comes from
   `solreffriction`, which only explicit <pair> elements carry, so frictional scenes list every
@@ -28,48 +29,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..common.checks import (linear_drag, non_sphere_bodies, spheres_without_inertia,
-                             walls_without_contact)
 from .body_plan import BodyPlan
-from .contact_params import (CONTACT_STEPS, IMPEDANCE, MAX_FRICTION_SPHERES,
-                             SOLVER_ITERATIONS, SOLVER_TOLERANCE, VARIANT_NOTES,
-                             friction_damping)
+from .contact_params import (CONTACT_STEPS, IMPEDANCE, SOLVER_ITERATIONS, SOLVER_TOLERANCE,
+                             VARIANT_NOTES, friction_damping)
 from .mjcf import xml_floats
 from .restitution import RestitutionMap, restitution_map
 
-WHO = "mujoco adapter"  # how the reasons name this engine
 
-
-def sphere_plans(scene) -> list[BodyPlan]:
-    """Every body a free sphere; qvel0 = (v, w): the free joint's angular velocity is in the
-    body frame, which is the world frame at t = 0 (identity orientation)."""
-    reason = _sphere_scene_refusal(scene)
-    if reason:
-        raise ValueError(reason)
-    return [BodyPlan("sphere", i, b.mass, b.position, radius=b.radius, inertia=b.inertia,
-                     qvel0=b.velocity + b.angular_velocity)
-            for i, b in enumerate(scene.bodies)]
-
-
-def _sphere_scene_refusal(scene):
-    """Why the scene's spheres cannot be free MuJoCo bodies with soft contacts, or None."""
-    if scene.contact is None:
-        return walls_without_contact(scene, WHO)
-    if scene.springs or scene.joints:
-        return ("mujoco adapter: springs and rods are not combined with contacts (every "
-                "sphere is a free body)")
-    reason = (linear_drag(scene, WHO, "spheres",
-                          " (damping on a free joint would also damp the spin)")
-              or non_sphere_bodies(scene, WHO)
-              or spheres_without_inertia(scene, WHO, why=(
-                  "; the adapter never lets MuJoCo derive one from the geom")))
-    if reason:
-        return reason
-    if scene.contact.friction > 0 and len(scene.bodies) > MAX_FRICTION_SPHERES:
-        return (f"mujoco adapter: friction is modelled for at most {MAX_FRICTION_SPHERES} "
-                f"spheres (its damping, solreffriction, is set only on explicit contact "
-                f"pairs, O(n^2) of them)")
-    return None
+def sphere_plan(i, body) -> BodyPlan:
+    """A free sphere; qvel0 = (v, w): the free joint's angular velocity is in the body frame,
+    which is the world frame at t = 0 (identity orientation)."""
+    return BodyPlan("sphere", i, body.mass, body.position, radius=body.radius,
+                    inertia=body.inertia, qvel0=body.velocity + body.angular_velocity)
 
 
 def rotate(quat: np.ndarray, vec: np.ndarray) -> np.ndarray:
@@ -84,23 +55,24 @@ class ContactSetup:
     """Contact parameters of one sphere scene at one dt and integrator."""
 
     nbody: int
-    wall_points: np.ndarray  # (n_walls, 3): scene.wall_set.point
-    wall_normals: np.ndarray  # (n_walls, 3) unit, into free space: scene.wall_set.normal
+    wall_points: np.ndarray  # (n_walls, 3): the Walls part's points ((0, 3) without walls)
+    wall_normals: np.ndarray  # (n_walls, 3) unit, into free space: the Walls part's normals
     restitution_map: RestitutionMap
     friction: float
     friction_damping: float
-    variant: str
+    formulation: str
 
     @property
     def impedance(self) -> float:
-        return IMPEDANCE[self.variant]
+        return IMPEDANCE[self.formulation]
 
     @classmethod
-    def make(cls, scene, dt, integrator, variant):
-        rmap = restitution_map(scene.contact.restitution, dt, integrator, IMPEDANCE[variant])
-        mu = scene.contact.friction
-        return cls(len(scene.bodies), scene.wall_set.point, scene.wall_set.normal, rmap,
-                   mu, friction_damping(dt) if mu > 0 else 0.0, variant)
+    def make(cls, contact, nbody, wall_points, wall_normals, dt, integrator, formulation):
+        """The setup of `nbody` spheres and the given walls under the ContactModel `contact`."""
+        rmap = restitution_map(contact.restitution, dt, integrator, IMPEDANCE[formulation])
+        mu = contact.friction
+        return cls(nbody, wall_points, wall_normals, rmap, mu,
+                   friction_damping(dt) if mu > 0 else 0.0, formulation)
 
     @property
     def condim(self) -> int:
@@ -149,8 +121,8 @@ class ContactSetup:
             "solimp_note": "flat impedance (dmin = dmax, so width/midpoint/power are unused); "
                            "d cancels from an isolated contact and decides how simultaneous "
                            "contacts couple",
-            "engine_variant": self.variant or "default",
-            "simultaneous_contacts": VARIANT_NOTES[self.variant],
+            "engine_variant": self.formulation or "default",
+            "simultaneous_contacts": VARIANT_NOTES[self.formulation],
             "contact_steps": CONTACT_STEPS,
             "contact_duration_s": CONTACT_STEPS * dt,
             "contact_duration_note": "undamped half period pi / sqrt(K); damping shortens it",

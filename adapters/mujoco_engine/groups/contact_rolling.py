@@ -31,7 +31,8 @@ import time
 import numpy as np
 
 from refsim.engine import ModelGroup
-from refsim.scene.rigid_shapes import rolling_scene_refusal, shapes_of
+from refsim.scene import RigidBodies, Walls
+from refsim.scene.rigid_shapes import RigidShapes, rolling_scene_refusal
 
 from ..contact_params import SOLVER_ITERATIONS, SOLVER_TOLERANCE
 from ..mjcf import xml_floats
@@ -58,14 +59,14 @@ _NOTES = {
 
 
 def claims(scene) -> bool:
-    return (getattr(scene, "rigid", None) is not None and shapes_of(scene) is not None)
+    return scene.part(RigidBodies) is not None and scene.part(RigidShapes) is not None
 
 
 def supports(engine, scene, integrator):
     reason = rolling_scene_refusal(scene, WHO)
     if reason:
         return reason
-    for i, tensor in enumerate(scene.rigid.inertia):
+    for i, tensor in enumerate(scene.part(RigidBodies).inertia):
         a, b, c = np.sort(principal_frame(tensor)[0])
         if a + b < c:
             return (f"{WHO}: rigid body {i} has principal moments with A + B < C, which "
@@ -73,7 +74,7 @@ def supports(engine, scene, integrator):
     return None
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in ROLLING_INTEGRATORS:
         raise ValueError(f"mujoco rolling integrator must be one of "
                          f"{list(ROLLING_INTEGRATORS)}, got {integrator!r}")
@@ -84,7 +85,7 @@ MODEL_GROUP = ModelGroup(
     name="rolling", build=build, claims=claims,
     parts=frozenset({"rigid", "rigid_shapes", "walls"}),
     features=frozenset({"rigid", "shapes", "walls", "contacts", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=ROLLING_INTEGRATORS)
+    formulations=lambda engine, scene: ("",), integrators=ROLLING_INTEGRATORS)
 
 
 # -- MJCF -------------------------------------------------------------------------------------
@@ -102,7 +103,7 @@ def _geom_xml(index, shape, radius, half_length) -> str:
 
 
 def _body_xml(scene, index, mj) -> str:
-    r, shapes = scene.rigid, shapes_of(scene)
+    r, shapes = scene.part(RigidBodies), scene.part(RigidShapes)
     j = int(np.flatnonzero(shapes.body == index)[0])
     moments, axes = principal_frame(r.inertia[index])
     iquat = np.zeros(4)
@@ -122,14 +123,15 @@ def _pairs_xml(scene, dt) -> str:
              f'{xml_floats(-damping)}" solimp="{IMPEDANCE!r} {IMPEDANCE!r} 0.001 0.5 2" '
              f'margin="{xml_floats(CONTACT_MARGIN)}" gap="0"')
     return "".join(f'<pair geom1="w{k}" geom2="g{b}" {attrs}/>'
-                   for k in range(len(scene.wall_set)) for b in shapes_of(scene).body)
+                   for k in range(len(scene.part(Walls))) for b in scene.part(RigidShapes).body)
 
 
 def rolling_scene_xml(scene, dt, method, mj) -> str:
     walls = "".join(f'<geom name="w{k}" type="plane" pos="{xml_floats(p)}" '
                     f'zaxis="{xml_floats(n)}" size="0 0 1"/>'
-                    for k, (p, n) in enumerate(zip(scene.wall_set.point, scene.wall_set.normal)))
-    bodies = "".join(_body_xml(scene, i, mj) for i in range(len(scene.rigid)))
+                    for k, (p, n) in enumerate(zip(scene.part(Walls).point,
+                                                     scene.part(Walls).normal)))
+    bodies = "".join(_body_xml(scene, i, mj) for i in range(len(scene.part(RigidBodies))))
     return (f'<mujoco model="refsim_rolling"><compiler inertiafromgeom="false" '
             f'balanceinertia="false"/>'
             f'<option timestep="{xml_floats(dt)}" gravity="{xml_floats(scene.gravity)}" '
@@ -153,14 +155,14 @@ class MujocoRollingSim(MujocoSim):
                                            "note": _NOTES[integrator]})
         self.plans, self.spheres, self.contact = [], False, None
         self.steps, self.failure, self._messages = 0, None, []
-        self.n = len(scene.rigid)
+        self.n = len(scene.part(RigidBodies))
         t0 = time.perf_counter()
         self.model = mujoco.MjModel.from_xml_string(
             rolling_scene_xml(scene, dt, self.method, mujoco))
         self.compile_s = time.perf_counter() - t0
         self._check_compiled()
         self.data = mujoco.MjData(self.model)
-        r = scene.rigid
+        r = scene.part(RigidBodies)
         qvel = np.concatenate([r.velocity, rotate(conjugate(r.orientation),
                                                   r.angular_velocity)], axis=1)
         self.data.qvel[:] = qvel.ravel()
@@ -169,7 +171,7 @@ class MujocoRollingSim(MujocoSim):
 
     def _check_compiled(self):
         """Options and masses as asked (MuJoCo's defaults differ)."""
-        m, mj, r = self.model, self.mj, self.scene.rigid
+        m, mj, r = self.model, self.mj, self.scene.part(RigidBodies)
         off = m.opt.disableflags
         wanted = int(getattr(mj.mjtIntegrator, self.method.native))
         if (m.opt.timestep != self.dt or not np.array_equal(m.opt.gravity, self.scene.gravity)

@@ -37,7 +37,8 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 from refsim.models.nbody_gravity import pair_accelerations
-from refsim.scene.gravity_pairs import gravity_pairs_of
+from refsim.scene import Particles
+from refsim.scene.gravity_pairs import GravityPairs
 
 from ..methods import METHODS
 from ..mjcf import xml_floats
@@ -60,25 +61,25 @@ def claims(scene) -> bool:
     return scene.part_kinds() == {"particles", "gravity_pairs"}
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in INTEGRATORS:
         raise ValueError(f"mujoco gravity_pairs integrator must be one of {list(INTEGRATORS)}, "
                          f"got {integrator!r}")
-    return MujocoGravitySim(scene, dt, integrator, variant)
+    return MujocoGravitySim(scene, dt, integrator, formulation)
 
 
 MODEL_GROUP = ModelGroup(
     name="gravity_pairs", build=build, claims=claims,
     parts=frozenset({"particles", "gravity_pairs"}),
     features=frozenset({"gravity_pairs", "gravity"}),
-    variants=lambda engine, scene: tuple(FORMULATIONS), integrators=INTEGRATORS)
+    formulations=lambda engine, scene: tuple(FORMULATIONS), integrators=INTEGRATORS)
 
 
-def effective_method(integrator: str, variant: str):
+def effective_method(integrator: str, formulation: str):
     """The Method as refsim declares it for this formulation: RK4 with the force frozen over the
     step is first order and not symplectic (see the module docstring)."""
     method = METHODS[integrator]
-    if integrator == "rk4" and variant == "":
+    if integrator == "rk4" and formulation == "":
         return replace(method, order=1, note=(
             "RK4's 4 stages with xfrc_applied held at the step-start force: v += h a(x_k), "
             "x += h v_k + h^2/2 a(x_k): first order (measured 1.0), not symplectic"))
@@ -93,7 +94,7 @@ def effective_method(integrator: str, variant: str):
 def gravity_scene_xml(scene, dt, method) -> str:
     """Free bodies at the particles' positions: explicit inertial, no geoms; explicit timestep,
     gravity and integrator; contacts, eulerdamp and autoreset off; arena sized for n bodies."""
-    p = scene.particles
+    p = scene.part(Particles)
     inertia = xml_floats([POINT_INERTIA] * 3)
     bodies = "".join(f'<body name="b{i}" pos="{xml_floats(x)}"><freejoint name="b{i}_free"/>'
                      f'<inertial pos="0 0 0" mass="{xml_floats(m)}" diaginertia="{inertia}"/>'
@@ -109,16 +110,16 @@ def gravity_scene_xml(scene, dt, method) -> str:
 class MujocoGravitySim(MujocoSim):
     """Free bodies driven by the all-pairs force; stepping per formulation (module docstring)."""
 
-    def __init__(self, scene, dt, integrator, variant):
+    def __init__(self, scene, dt, integrator, formulation):
         import mujoco
         self.mj, self.scene, self.dt = mujoco, scene, dt
-        self.integrator, self.variant = integrator, variant
-        self.method = effective_method(integrator, variant)
+        self.integrator, self.formulation = integrator, formulation
+        self.method = effective_method(integrator, formulation)
         self.plans, self.spheres, self.contact = [], False, None
         self.steps, self.failure, self._messages = 0, None, []
-        part = gravity_pairs_of(scene)
+        part, particles = scene.part(GravityPairs), scene.part(Particles)
         self.G, self.softening = part.G, part.softening
-        self.masses = np.array(scene.masses)
+        self.masses = np.array(particles.mass)
         self.n = n = len(self.masses)
         t0 = time.perf_counter()
         self.model = mujoco.MjModel.from_xml_string(gravity_scene_xml(scene, dt, self.method))
@@ -128,7 +129,7 @@ class MujocoGravitySim(MujocoSim):
         self.data = d = mujoco.MjData(self.model)
         self._x = d.qpos.reshape(n, 7)[:, :3]  # live views into mjData
         self._v = d.qvel.reshape(n, 6)[:, :3]
-        self._v[:] = scene.velocities
+        self._v[:] = particles.velocity
         self._xfrc = d.xfrc_applied[1:n + 1, :3]
         self._qfrc = d.qfrc_passive.reshape(n, 6)[:, :3]
         self._bad = np.array([int(getattr(mujoco.mjtWarning, w)) for w in BAD_WARNINGS])
@@ -137,7 +138,8 @@ class MujocoGravitySim(MujocoSim):
     def _check_masses(self):
         m = self.model
         if not np.array_equal(m.body_mass[1:self.n + 1], self.masses) or \
-                not np.array_equal(m.body_pos[1:self.n + 1], self.scene.positions):
+                not np.array_equal(m.body_pos[1:self.n + 1],
+                                   self.scene.part(Particles).position):
             raise RuntimeError("mujoco compiled other masses/positions than the scene's")
 
     def _forces(self):
@@ -151,7 +153,7 @@ class MujocoGravitySim(MujocoSim):
         previous = mj.get_mju_user_warning()
         mj.set_mju_user_warning(self._messages.append)  # no MUJOCO_LOG.TXT, no console
         try:
-            if self.variant == "passive_callback":
+            if self.formulation == "passive_callback":
                 self._step_with_callback(n)
             else:
                 self._step_with_xfrc(n)
@@ -189,10 +191,10 @@ class MujocoGravitySim(MujocoSim):
         out = self._base_settings()
         for key in ("bodies", "drag", "inertia", "step_call"):
             out.pop(key, None)
-        callback = self.variant == "passive_callback"
+        callback = self.formulation == "passive_callback"
         out["integrator"].update(self._integrator_notes())
         out.update({
-            "formulation": FORMULATIONS[self.variant],
+            "formulation": FORMULATIONS[self.formulation],
             "formulation_name": "passive_callback" if callback else "xfrc_per_step",
             "python_per_step": COST_NOTE.format(
                 api="mujoco.set_mjcb_passive (qfrc_passive)" if callback else
@@ -213,7 +215,7 @@ class MujocoGravitySim(MujocoSim):
         return out
 
     def _integrator_notes(self) -> dict:
-        staged = self.integrator == "rk4" and self.variant == "passive_callback"
+        staged = self.integrator == "rk4" and self.formulation == "passive_callback"
         return {"nominal_order": METHODS[self.integrator].order,
                 "force_evaluations_per_step": 4 if staged else 1,
                 "force_frozen_over_step": not staged}

@@ -31,7 +31,8 @@ from dataclasses import replace
 import numpy as np
 
 from refsim.engine import ModelGroup
-from refsim.scene.pivots import check_on_anchor, pivots_of
+from refsim.scene import RigidBodies
+from refsim.scene.pivots import RigidPivots, check_on_anchor
 
 from ..methods import METHODS
 from ..mjcf import xml_floats
@@ -65,12 +66,12 @@ _NOTES = {
 
 # -- the group ----------------------------------------------------------------------------------
 def claims(scene) -> bool:
-    return getattr(scene, "rigid", None) is not None and pivots_of(scene) is not None
+    return scene.part(RigidBodies) is not None and scene.part(RigidPivots) is not None
 
 
 def pivot_refusal(scene) -> str | None:
     """Why this group cannot take the scene's pivots (unpivoted bodies, A + B < C), or None."""
-    pivots, rigid = pivots_of(scene), scene.rigid
+    pivots, rigid = scene.part(RigidPivots), scene.part(RigidBodies)
     try:
         check_on_anchor(pivots, rigid)
     except ValueError as exc:
@@ -98,7 +99,7 @@ def pivot_methods() -> dict:
             for name in PIVOT_INTEGRATORS}
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in PIVOT_INTEGRATORS:
         raise ValueError(f"mujoco pivot integrator must be one of {list(PIVOT_INTEGRATORS)}, "
                          f"got {integrator!r}")
@@ -108,7 +109,7 @@ def build(engine, scene, dt, integrator, variant):
 MODEL_GROUP = ModelGroup(
     name="pivots", build=build, claims=claims, parts=frozenset({"rigid", "rigid_pivots"}),
     features=frozenset({"rigid", "pivots", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=PIVOT_INTEGRATORS)
+    formulations=lambda engine, scene: ("",), integrators=PIVOT_INTEGRATORS)
 
 
 # -- MJCF -------------------------------------------------------------------------------------
@@ -127,7 +128,7 @@ def _body_xml(index, mass, inertia, body_point, anchor, mj) -> str:
 
 def pivot_scene_xml(scene, dt, method, mj) -> str:
     """MJCF: explicit timestep and gravity, no fluid forces, contacts/eulerdamp/autoreset off."""
-    r, pv = scene.rigid, pivots_of(scene)
+    r, pv = scene.part(RigidBodies), scene.part(RigidPivots)
     bodies = "".join(_body_xml(i, r.mass[b], r.inertia[b], pv.body_point[i], pv.anchor[i], mj)
                      for i, b in enumerate(pv.body))  # build time only
     return (f'<mujoco model="refsim_pivots"><compiler inertiafromgeom="false" '
@@ -147,7 +148,7 @@ class MujocoPivotSim(MujocoSim):
         self.integrator, self.method = integrator, method
         self.plans, self.spheres, self.contact = [], False, None
         self.steps, self.failure, self._messages = 0, None, []
-        self.pivots = pivots_of(scene)
+        self.pivots = scene.part(RigidPivots)
         self.order = self.pivots.body  # pivot i drives scene body order[i]
         self.k = len(self.pivots)
         t0 = time.perf_counter()
@@ -161,13 +162,13 @@ class MujocoPivotSim(MujocoSim):
         self._counts = self.data.warning.number
 
     def _set_initial_state(self):
-        r = self.scene.rigid
+        r = self.scene.part(RigidBodies)
         q0 = r.orientation[self.order]
         self.data.qpos[:] = q0.ravel()
         self.data.qvel[:] = rotate(conjugate(q0), r.angular_velocity[self.order]).ravel()
 
     def _check_inertia(self):
-        r = self.scene.rigid
+        r = self.scene.part(RigidBodies)
         check_compiled_bodies(self.model, self.mj, r.mass[self.order], r.inertia[self.order],
                               -self.pivots.body_point)
 
@@ -177,7 +178,7 @@ class MujocoPivotSim(MujocoSim):
         orientation_defect = |q|^2 - 1, pivot_gap (k,) = |x - R(-p) - anchor| per pivot (round-off:
         exact joint),
         engine_energy = MuJoCo's kinetic + potential energy (mj_forward, mj_energyPos/Vel)."""
-        n = len(self.scene.rigid)
+        n = len(self.scene.part(RigidBodies))
         q = self.data.qpos.reshape(self.k, 4).copy()
         w_body = self.data.qvel.reshape(self.k, 3)
         arm = -rotate(q, self.pivots.body_point)  # anchor -> centre of mass

@@ -34,6 +34,7 @@ from dataclasses import replace
 import numpy as np
 
 from refsim.engine import ModelGroup
+from refsim.scene import RigidBodies
 
 from .rigid_sim import MujocoRigidSim, principal_frame
 
@@ -71,7 +72,7 @@ def rigid_methods() -> dict:
 
 def inertia_refusal(scene) -> str | None:
     """Why MuJoCo would refuse a body's inertia (principal moments A + B < C), or None."""
-    for i, tensor in enumerate(scene.rigid.inertia):
+    for i, tensor in enumerate(scene.part(RigidBodies).inertia):
         a, b, c = np.sort(principal_frame(tensor)[0])
         if a + b < c:
             return (f"{WHO}: rigid body {i} has principal moments {a!r}, {b!r}, {c!r} with "
@@ -81,14 +82,14 @@ def inertia_refusal(scene) -> str | None:
 
 
 def _claims(scene) -> bool:
-    return getattr(scene, "rigid", None) is not None
+    return scene.part(RigidBodies) is not None
 
 
 def _supports(engine, scene, integrator):
     return inertia_refusal(scene)
 
 
-def _build(engine, scene, dt, integrator, variant):
+def _build(engine, scene, dt, integrator, formulation):
     if integrator not in RIGID_INTEGRATORS:
         raise ValueError(f"mujoco rigid integrator must be one of {list(RIGID_INTEGRATORS)}, "
                          f"got {integrator!r}")
@@ -98,4 +99,4 @@ def _build(engine, scene, dt, integrator, variant):
 MODEL_GROUP = ModelGroup(
     name="rigid", build=_build, claims=_claims, parts=frozenset({"rigid"}),
     features=frozenset({"rigid", "gravity"}), supports=_supports,
-    variants=lambda engine, scene: ("",), integrators=RIGID_INTEGRATORS)
+    formulations=lambda engine, scene: ("",), integrators=RIGID_INTEGRATORS)

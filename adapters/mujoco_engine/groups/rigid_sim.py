@@ -9,6 +9,8 @@ import time
 
 import numpy as np
 
+from refsim.scene import RigidBodies
+
 from ..mjcf import xml_floats
 from ..sim import BAD_WARNINGS, MujocoSim
 from ..spheres import rotate
@@ -65,7 +67,7 @@ def _body_xml(index, mass, position, orientation, inertia, mj) -> str:
 
 def rigid_scene_xml(scene, dt, method, mj) -> str:
     """MJCF: explicit timestep and gravity, no fluid forces, contacts/eulerdamp/autoreset off."""
-    r = scene.rigid
+    r = scene.part(RigidBodies)
     bodies = "".join(_body_xml(i, r.mass[i], r.position[i], r.orientation[i], r.inertia[i], mj)
                      for i in range(len(r)))  # build time only, one string per body
     return (f'<mujoco model="refsim_rigid"><compiler inertiafromgeom="false"/>'
@@ -117,7 +119,7 @@ class MujocoRigidSim(MujocoSim):
         self.integrator, self.method = integrator, method
         self.plans, self.spheres, self.contact = [], False, None
         self.steps, self.failure, self._messages = 0, None, []
-        self.n = len(scene.rigid)
+        self.n = len(scene.part(RigidBodies))
         t0 = time.perf_counter()
         self.model = mujoco.MjModel.from_xml_string(rigid_scene_xml(scene, dt, method,
                                                                     mujoco))
@@ -132,13 +134,13 @@ class MujocoRigidSim(MujocoSim):
     def _set_initial_state(self):
         """qpos = the scene's exact (x, q) (MJCF text would be re-normalised by the compiler);
         qvel angular = R^T w, the free joint's body frame."""
-        r = self.scene.rigid
+        r = self.scene.part(RigidBodies)
         self.data.qpos[:] = np.hstack([r.position, r.orientation]).ravel()
         w_body = rotate(conjugate(r.orientation), r.angular_velocity)
         self.data.qvel[:] = np.hstack([r.velocity, w_body]).ravel()
 
     def _check_inertia(self):
-        r = self.scene.rigid
+        r = self.scene.part(RigidBodies)
         check_compiled_bodies(self.model, self.mj, r.mass, r.inertia, np.zeros((self.n, 3)))
 
     # -- observation --------------------------------------------------------------------------

@@ -38,6 +38,7 @@ from dataclasses import replace
 
 from refsim_adapters.common.spring_network import NETWORK_INTEGRATORS, claims, scene_reason
 from refsim.engine import ModelGroup
+from refsim.scene import SpringNetwork
 
 WHO = "mujoco adapter"
 OWN_INTEGRATORS = ("discrete",)
@@ -96,7 +97,7 @@ def supports(engine, scene, integrator):
     reason = scene_reason(scene, WHO)
     if reason:
         return reason
-    net = scene.networks[0]
+    net = scene.parts_of(SpringNetwork)[0]
     if _bends(net):
         flex = flex_reason(net)
         if flex:
@@ -104,20 +105,20 @@ def supports(engine, scene, integrator):
     return REFUSED.get(integrator)
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     """"flex" alone for a network with hinges (the tendon formulation has no bending), ""
     alone otherwise."""
-    return ("flex",) if _bends(scene.networks[0]) else ("",)
+    return ("flex",) if _bends(scene.parts_of(SpringNetwork)[0]) else ("",)
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     from ..network_flex_sim import MujocoFlexSim
     from ..network_sim import MujocoNetworkSim
     if integrator not in RUNS:
         raise ValueError(REFUSED.get(integrator) or
                          f"mujoco spring-network integrator must be one of {list(RUNS)}, "
                          f"got {integrator!r}")
-    if variant == "flex":
+    if formulation == "flex":
         return MujocoFlexSim(scene, dt, integrator, network_methods()[integrator],
                              FLEX_TREATED_IMPLICITLY.get(integrator,
                                                          TREATED_IMPLICITLY[integrator]))
@@ -128,4 +129,4 @@ def build(engine, scene, dt, integrator, variant):
 MODEL_GROUP = ModelGroup(
     name="spring_network", build=build, claims=claims, parts=frozenset({"networks"}),
     features=frozenset({"networks", "gravity", "drag"}), supports=supports,
-    variants=variants, integrators=OFFERED)
+    formulations=formulations, integrators=OFFERED)

@@ -21,7 +21,7 @@ from refsim.registry import get_case
 from refsim.run.metrics import bisect_limit, convergence_order
 from refsim.integrators import method_info
 from refsim.run.job import Job, run_job
-from refsim.scene import Body, Joint, Scene, Spring
+from refsim.scene import Body, Joint, Joints, Particles, Scene, Spring, Springs
 
 ENGINE = get_engine("mujoco")
 REFSIM = get_engine("refsim")
@@ -66,7 +66,7 @@ def test_exact_discrete_agreement_with_refsim(name, variant, ours, theirs):
     case, p, scene = _case(name, variant)
     dt = case.reference_dt(p)
     a = ENGINE.build(scene, dt, ours)
-    b = REFSIM.build(scene, dt, theirs, "generalized" if scene.joints else "")
+    b = REFSIM.build(scene, dt, theirs, "generalized" if scene.part(Joints) else "")
     steps = min(case_steps(case, p, dt), 3000)
     assert _max_difference(a, b, steps, chunk=50) <= 1e-9
     assert a.failure is None
@@ -80,7 +80,7 @@ def test_pendulum_starts_on_the_scene_pose_and_swings_down():
     case, p, scene = _case("pendulum")
     sim = ENGINE.build(scene, 1e-3, "symplectic_euler")
     o = sim.observe()
-    np.testing.assert_allclose(o["x"], scene.positions, atol=1e-15)
+    np.testing.assert_allclose(o["x"], scene.part(Particles).position, atol=1e-15)
     np.testing.assert_allclose(o["v"], 0.0, atol=1e-15)
     np.testing.assert_array_equal(o["constraint"], [0.0])
     sim.step(10)
@@ -291,21 +291,24 @@ def test_silent_reset_is_reported(tmp_path, monkeypatch):
 def test_unsupported_scenes_give_specific_reasons():
     ball = Body(mass=1.0, position=(1.0, 0.0, 0.0))
     other = Body(mass=1.0, position=(2.0, 0.0, 0.0))
-    pair = Scene(bodies=(ball, other), springs=(Spring(body=0, other=1, stiffness=1.0,
-                                                       rest_length=1.0),))
+    pair = Scene(parts=(Particles.of((ball, other)),
+                        Springs.of((Spring(body=0, other=1, stiffness=1.0, rest_length=1.0),))))
     assert "two bodies" in ENGINE.supports(pair)
-    off_line = Scene(bodies=(ball,), springs=(Spring(body=0, stiffness=1.0, rest_length=1.0),),
+    off_line = Scene(parts=(Particles.of((ball,)),
+                            Springs.of((Spring(body=0, stiffness=1.0, rest_length=1.0),))),
                      gravity=(0.0, 0.0, -9.81))
     assert "along the anchor-body line" in ENGINE.supports(off_line)
-    through = Scene(bodies=(Body(mass=1.0, position=(3.0, 0.0, 0.0)),),
-                    springs=(Spring(body=0, stiffness=1.0, rest_length=1.0),))
+    through = Scene(parts=(Particles.of((Body(mass=1.0, position=(3.0, 0.0, 0.0)),)),
+                           Springs.of((Spring(body=0, stiffness=1.0, rest_length=1.0),))))
     assert "through its anchor" in ENGINE.supports(through)
-    bad_rod = Scene(bodies=(ball,), joints=(Joint(body=0, anchor=(0, 0, 0), length=2.0),),
+    bad_rod = Scene(parts=(Particles.of((ball,)),
+                           Joints.of((Joint(body=0, anchor=(0, 0, 0), length=2.0),))),
                     gravity=(0.0, 0.0, -9.81))
     assert "distance L" in ENGINE.supports(bad_rod)
-    flat = Scene(bodies=(ball,), dim=2)
+    flat = Scene(parts=(Particles.of((ball,)),), dim=2)
     assert "3D only" in ENGINE.supports(flat)
-    assert "offers no integrator" in ENGINE.supports(Scene(bodies=(ball,)), "velocity_verlet")
+    assert "offers no integrator" in ENGINE.supports(Scene(parts=(Particles.of((ball,)),)),
+                                                 "velocity_verlet")
 
 
 def test_bad_input_raises_value_error():
@@ -314,7 +317,7 @@ def test_bad_input_raises_value_error():
         ENGINE.build(scene, 1e-3, "euler")
     with pytest.raises(ValueError, match="dt"):
         ENGINE.build(scene, 0.0, "rk4")
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         ENGINE.build(scene, 1e-3, "rk4", "generalized")
 
 

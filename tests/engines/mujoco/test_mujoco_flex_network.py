@@ -40,7 +40,7 @@ def hair(links=8, l=0.1, kb=200.0, m=0.01, tip=0.1, k=1e5, drag=2.0, bend_last=0
                         stiffness=k, rest_length=l, damping=0.0,
                         hinges=np.c_[np.arange(n - 2), np.arange(1, n - 1), np.arange(2, n)],
                         hinge_stiffness=kb, hinge_rest_angle=0.0, pinned=[0, 1])
-    return Scene(networks=(net,), gravity=(0.0, 0.0, gravity), linear_drag=drag)
+    return Scene(parts=(net,), gravity=(0.0, 0.0, gravity), linear_drag=drag)
 
 
 def chain_equilibrium(net, kb, measure):
@@ -89,7 +89,7 @@ def test_initial_state_round_trips_and_twist_stays_zero():
     sim = MJ.build(scene, 1e-4, "symplectic_euler", "flex")
     obs = sim.observe()
     check_observation(obs, scene)
-    x = scene.networks[0].positions
+    x = scene.part(SpringNetwork).positions
     # reference + (x - reference): two roundings of |x| <= 1 m
     assert np.abs(obs["x"] - x).max() <= 2 * EPS * np.abs(x).max()
     sim.step(2000)
@@ -116,7 +116,7 @@ def test_settled_hair_sits_on_the_tan_equilibrium(tip, k, dt, steps):
     is 3.5e-5 m away from the tan one, more than 3 x that bound (1.0e-5 m): MuJoCo sits on
     the tan one."""
     scene = hair(tip=tip, k=k, drag=10.0 * tip)
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     x = settled(scene, steps=steps, dt=dt)
     stretch = np.abs(np.linalg.norm(np.diff(x, axis=0), axis=1) - net.rest_length).sum()
     _, tip_tan = chain_equilibrium(net, 200.0, tan_moment)
@@ -133,7 +133,7 @@ def test_small_load_against_the_linear_cantilever_formula():
     linearisation error is O(psi^2) relative (psi: the tip segment's angle): bounded here by
     psi^2 (psi = 0.024 rad: 5.8e-4)."""
     scene = hair()
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     x0, m = net.positions[:, 0], net.masses
     nodes = np.arange(1, len(net) - 1)
     moments = np.array([np.sum(m[j + 1:] * G * (x0[j + 1:] - x0[j])) for j in nodes])
@@ -151,19 +151,19 @@ def test_offers_flex_only_for_a_hair_and_refuses_with_reasons():
     assert MJ.supports(scene, "rk4") is None and MJ.supports(scene, "discrete") is None
     assert "Verlet" in MJ.supports(scene, "velocity_verlet")
     assert "discrete" in MJ.supports(scene, "baraff_witkin")
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     bent = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                          stiffness=1e5, hinges=net.hinges, hinge_stiffness=200.0,
                          hinge_rest_angle=0.2, pinned=[0, 1])
-    assert "rest angles must be 0" in MJ.supports(Scene(networks=(bent,)), "rk4")
+    assert "rest angles must be 0" in MJ.supports(Scene(parts=(bent,)), "rk4")
     uneven = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                            stiffness=1e5, hinges=net.hinges,
                            hinge_stiffness=np.linspace(100, 200, len(net.hinges)), pinned=[0, 1])
-    assert "one young modulus" in MJ.supports(Scene(networks=(uneven,)), "rk4")
+    assert "one young modulus" in MJ.supports(Scene(parts=(uneven,)), "rk4")
     partial = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                             stiffness=1e5, hinges=net.hinges[:3], hinge_stiffness=200.0,
                             pinned=[0, 1])
-    assert "EVERY interior vertex" in MJ.supports(Scene(networks=(partial,)), "rk4")
+    assert "EVERY interior vertex" in MJ.supports(Scene(parts=(partial,)), "rk4")
 
 
 @pytest.mark.parametrize("integrator", ["rk4", "discrete"])
@@ -171,7 +171,7 @@ def test_other_integrators_settle_on_the_same_equilibrium(integrator):
     """Euler, RK4 and discrete share the fixed point (statics need no integrator): the same
     bound as the tan-equilibrium test."""
     scene = hair()
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     x = settled(scene, steps=20000 if integrator == "discrete" else 40000,
                 integrator=integrator)
     stretch = np.abs(np.linalg.norm(np.diff(x, axis=0), axis=1) - net.rest_length).sum()

@@ -24,7 +24,7 @@ NOMINAL_ORDER = {"symplectic_euler": 1, "rk4": 4, "implicit": 1, "implicitfast":
 
 
 def _energy(obs, scene):
-    r = scene.rigid
+    r = scene.part(RigidBodies)
     R, w, v = rot(obs["q"][0]), obs["w"][0], obs["v"][0]
     return 0.5 * r.mass[0] * v @ v + 0.5 * w @ (R @ r.inertia[0] @ R.T) @ w \
         - r.mass[0] * np.asarray(scene.gravity) @ obs["x"][0]
@@ -46,7 +46,7 @@ def test_initial_observation_is_the_scene():
     """t = 0: x, v, q, w are the scene's to round-off (a rotation and back: ~10 eps of |value|)."""
     scene = asymmetric()
     obs = ENGINE.build(scene, 1e-3, "rk4").observe()
-    r = scene.rigid
+    r = scene.part(RigidBodies)
     for name, want in (("x", r.position), ("v", r.velocity), ("q", r.orientation),
                        ("w", r.angular_velocity)):
         np.testing.assert_allclose(obs[name], want, rtol=0, atol=10 * EPS * np.abs(want).max())
@@ -73,17 +73,17 @@ def test_energy_euler_gains_implicit_loses_rk4_keeps():
 
 def test_refusals_name_the_reason():
     scene = top()
-    flat = scene.rigid
+    flat = scene.part(RigidBodies)
     two = RigidBodies(mass=[1.0, 1.0], inertia=[flat.inertia[0]] * 2,
                       position=[flat.position[0], [5.0, 0.0, 0.0]],
                       orientation=[flat.orientation[0]] * 2)
-    unpivoted = Scene(rigid=two, gravity=scene.gravity, extra=scene.extra)
+    unpivoted = Scene(parts=(two, scene.part(RigidPivots)), gravity=scene.gravity)
     assert "must have a pivot" in ENGINE.supports(unpivoted, "rk4")
     bad = pivoted(1.0, np.diag([0.1, 0.1, 0.5]), np.array([0.0, 0.0, -0.5]),
                   np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3))
     assert "A + B < C" in ENGINE.supports(bad, "rk4")
-    off = Scene(rigid=flat, gravity=scene.gravity,
-                extra=(RigidPivots(body=[0], body_point=[[0.0, 0.0, -0.4]], anchor=[[0, 0, 0]]),))
+    off = Scene(parts=(flat, RigidPivots(body=[0], body_point=[[0.0, 0.0, -0.4]],
+                                         anchor=[[0, 0, 0]])), gravity=scene.gravity)
     assert "start on its anchor" in ENGINE.supports(off, "rk4")
     with pytest.raises(ValueError, match="integrator"):
         ENGINE.build(scene, 1e-3, "discrete")

@@ -47,7 +47,7 @@ def _qmul(a, b):
 def _top_scene(inertia=None, w_body=W_BODY0, gravity=(0.0, 0.0, 0.0), velocity=(0, 0, 0)):
     inertia = np.diag(MOMENTS) if inertia is None else inertia
     w_world = rotate(Q0[None], np.asarray(w_body, float)[None])
-    return Scene(rigid=RigidBodies(mass=[1.5], inertia=[inertia], position=[[0.3, -0.2, 1.0]],
+    return Scene(parts=RigidBodies(mass=[1.5], inertia=[inertia], position=[[0.3, -0.2, 1.0]],
                                    orientation=[Q0], velocity=[velocity],
                                    angular_velocity=w_world), gravity=gravity)
 
@@ -92,8 +92,8 @@ def test_refusals_name_their_reason():
     assert "A + B < C" in ENGINE.supports(_top_scene(inertia=flat), "rk4")
     with pytest.raises(ValueError, match="A \\+ B < C"):
         ENGINE.build(_top_scene(inertia=flat), 1e-3, "rk4")
-    rigid = _top_scene().rigid
-    dragged = Scene(rigid=rigid, linear_drag=0.1)
+    rigid = _top_scene().part(RigidBodies)
+    dragged = Scene(parts=rigid, linear_drag=0.1)
     assert ENGINE.supports(dragged, "rk4") == "mujoco does not simulate drag"
 
 
@@ -105,7 +105,7 @@ def test_initial_observation_is_the_scene(inertia):
     sim = ENGINE.build(scene, 1e-3, "rk4")
     obs = sim.observe()
     assert check_observation(obs, scene) == []
-    r = scene.rigid
+    r = scene.part(RigidBodies)
     assert np.array_equal(obs["x"], r.position) and np.array_equal(obs["v"], r.velocity)
     assert np.array_equal(obs["q"], r.orientation)
     assert np.abs(obs["w"] - r.angular_velocity).max() <= 8 * EPS * np.abs(W_BODY0).max()
@@ -128,7 +128,7 @@ def test_settings_are_json_and_name_the_facts():
 def _model_symplectic_euler(scene, dt, steps):
     """The brief's equations, world frame, vectorised over bodies: w += h I_w^-1 (tau - w x
     I_w w) with I_w = R I0 R^T at q_k; v += h g; x += h v; q <- exp(h w / 2) (x) q."""
-    r = scene.rigid
+    r = scene.part(RigidBodies)
     x, v, q, w = (np.array(a, float) for a in (r.position, r.velocity, r.orientation,
                                                r.angular_velocity))
     for _ in range(steps):
@@ -276,7 +276,7 @@ def test_free_fall_exact():
     1000 additions of rounding eps |x| each, |x| <= 10 m: 1000 * 10 * eps = 2.2e-12."""
     g, v0 = np.array([0.0, 0.0, -9.81]), np.array([1.0, 0.5, 3.0])
     scene = _top_scene(inertia=FULL_INERTIA, gravity=g, velocity=v0)
-    x0, dt, k = scene.rigid.position[0], 1e-3, 1000
+    x0, dt, k = scene.part(RigidBodies).position[0], 1e-3, 1000
     t = k * dt
     rk4 = _run(scene, "rk4", dt, t)
     assert np.abs(rk4["x"][0] - (x0 + v0 * t + 0.5 * g * t * t)).max() <= 2.2e-12
@@ -307,14 +307,14 @@ def test_bodies_are_independent_and_in_order():
                                                       np.diag([2.0, 2.0, 3.0])],
                         position=[[0, 0, 0], [1, 2, 3], [-1, 0, 5]], orientation=qs,
                         velocity=[[0, 0, 1], [1, 0, 0], [0, 2, 0]], angular_velocity=ws)
-    together = _run(Scene(rigid=rigid, gravity=(0, 0, -9.81)), "rk4", 1e-2, 1.0)
+    together = _run(Scene(parts=rigid, gravity=(0, 0, -9.81)), "rk4", 1e-2, 1.0)
     for i in range(3):
         single = RigidBodies(mass=rigid.mass[i:i + 1], inertia=rigid.inertia[i:i + 1],
                              position=rigid.position[i:i + 1],
                              orientation=rigid.orientation[i:i + 1],
                              velocity=rigid.velocity[i:i + 1],
                              angular_velocity=rigid.angular_velocity[i:i + 1])
-        alone = _run(Scene(rigid=single, gravity=(0, 0, -9.81)), "rk4", 1e-2, 1.0)
+        alone = _run(Scene(parts=single, gravity=(0, 0, -9.81)), "rk4", 1e-2, 1.0)
         assert all(np.array_equal(together[k][i], alone[k][0]) for k in ("x", "v", "q", "w"))
 
 

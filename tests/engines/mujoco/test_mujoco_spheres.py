@@ -25,7 +25,7 @@ from refsim_adapters.mujoco_engine.contact_params import CONTACT_STEPS, IMPEDANC
 from refsim_adapters.mujoco_engine.restitution import restitution_map
 from refsim_adapters.mujoco_engine.spheres import rotate
 from refsim.registry import get_case
-from refsim.scene import Body, ContactModel, Scene, Wall
+from refsim.scene import Body, ContactModel, Particles, Scene, Wall, Walls
 from refsim.testing import accuracy
 
 SE = "symplectic_euler"
@@ -263,26 +263,27 @@ def test_settings_report_contact_model_and_mapping(variant, condim):
         assert key in s
     assert s["condim"] == condim and s["solver"]["name"] == "Newton"
     m = sim.model
-    n = len(scene.bodies)
+    bodies, walls = scene.part(Particles), scene.part(Walls)
+    n = len(bodies)
     # masses and 2/5 m r^2 are the scene's, not MuJoCo's
-    np.testing.assert_array_equal(m.body_mass[1:n + 1], scene.masses)
+    np.testing.assert_array_equal(m.body_mass[1:n + 1], bodies.mass)
     np.testing.assert_allclose(m.body_inertia[1:n + 1], np.repeat(
-        scene.inertias[:, None], 3, axis=1), rtol=1e-15)
+        bodies.inertia[:, None], 3, axis=1), rtol=1e-15)
     assert not m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
     assert m.opt.timestep == 1e-3 and m.opt.cone == int(mujoco.mjtCone.mjCONE_ELLIPTIC)
     solref = m.pair_solref if condim == 3 else m.geom_solref
     np.testing.assert_array_equal(solref, np.tile(s["solref"], (len(solref), 1)))
     if condim == 3:
-        assert m.npair == n * (n - 1) // 2 + n * len(scene.walls)
+        assert m.npair == n * (n - 1) // 2 + n * (0 if walls is None else len(walls))
         np.testing.assert_array_equal(m.pair_friction[:, 0], p["friction"])
     # walls: plane geoms whose z axis is the inward normal
     planes = np.flatnonzero(m.geom_type == int(mujoco.mjtGeom.mjGEOM_PLANE))
-    assert len(planes) == len(scene.walls)
+    assert len(planes) == (0 if walls is None else len(walls))
     if len(planes):
         data = mujoco.MjData(m)
         mujoco.mj_kinematics(m, data)
         normals = data.geom_xmat[planes].reshape(-1, 3, 3)[:, :, 2]
-        np.testing.assert_allclose(normals, [w.normal for w in scene.walls], atol=1e-15)
+        np.testing.assert_allclose(normals, walls.normal, atol=1e-15)
 
 
 def test_calibration_is_deterministic_and_cached():
@@ -307,16 +308,17 @@ def _ball(x, **kw):
 
 
 @pytest.mark.parametrize("scene,integrator,words", [
-    (Scene(bodies=(_ball((0, 0, 0)), _ball((1, 0, 0))), contact=ContactModel()), "discrete",
-     "backward Euler"),
-    (Scene(bodies=(_ball((0, 0, 0)),), contact=ContactModel(), linear_drag=0.1), SE, "drag"),
-    (Scene(bodies=(Body(mass=1.0, position=(0, 0, 0), radius=0.1),), contact=ContactModel()),
-     SE, "moment of inertia"),
-    (Scene(bodies=(Body(mass=1.0, position=(0, 0, 0)),), contact=ContactModel()), SE,
-     "radius > 0"),
-    (Scene(bodies=(_ball((0, 0, 0)),), walls=(Wall((0, 0, -1), (0, 0, 1)),)), SE,
-     "contact model"),
-    (Scene(bodies=tuple(_ball((i, 0, 0)) for i in range(201)),
+    (Scene(parts=(Particles.of((_ball((0, 0, 0)), _ball((1, 0, 0)))),), contact=ContactModel()),
+     "discrete", "backward Euler"),
+    (Scene(parts=(Particles.of((_ball((0, 0, 0)),)),), contact=ContactModel(), linear_drag=0.1),
+     SE, "drag"),
+    (Scene(parts=(Particles.of((Body(mass=1.0, position=(0, 0, 0), radius=0.1),)),),
+           contact=ContactModel()), SE, "moment of inertia"),
+    (Scene(parts=(Particles.of((Body(mass=1.0, position=(0, 0, 0)),)),), contact=ContactModel()),
+     SE, "radius > 0"),
+    (Scene(parts=(Particles.of((_ball((0, 0, 0)),)), Walls.of((Wall((0, 0, -1), (0, 0, 1)),)))),
+     SE, "contact model"),
+    (Scene(parts=(Particles.of(tuple(_ball((i, 0, 0)) for i in range(201))),),
            contact=ContactModel(friction=0.5)), SE, "explicit contact pairs"),
 ])
 def test_unsupported_contact_scenes_give_specific_reasons(scene, integrator, words):
@@ -328,11 +330,11 @@ def test_unsupported_contact_scenes_give_specific_reasons(scene, integrator, wor
 
 def test_contact_scenes_offer_coupled_and_other_scenes_only_the_default():
     c, p = params("head_on")
-    assert {"contacts", "walls"} <= ENGINE.capabilities
-    assert ENGINE.variants(c.scene(p)) == ("", "coupled")
+    assert {"contacts", "walls"} <= ENGINE.group_for(c.scene(p)).features
+    assert ENGINE.formulations(c.scene(p)) == ("", "coupled")
     free_fall = get_case("free_fall")
-    assert ENGINE.variants(free_fall.scene(free_fall.variant_params("default"))) == ("",)
-    with pytest.raises(ValueError, match="variant"):
+    assert ENGINE.formulations(free_fall.scene(free_fall.variant_params("default"))) == ("",)
+    with pytest.raises(ValueError, match="formulation"):
         ENGINE.build(c.scene(p), 1e-3, SE, "generalized")
 
 
@@ -344,8 +346,8 @@ def test_gravity_is_honoured_and_a_ball_rests_on_a_wall(tmp_path, monkeypatch):
     written to the working directory."""
     monkeypatch.chdir(tmp_path)
     floor = Wall(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
-    scene = Scene(bodies=(_ball((0.0, 0.0, 0.3)),), contact=ContactModel(restitution=0.5),
-                  walls=(floor,), gravity=(0.0, 0.0, -9.81))
+    scene = Scene(parts=(Particles.of((_ball((0.0, 0.0, 0.3)),)), Walls.of((floor,))),
+                  contact=ContactModel(restitution=0.5), gravity=(0.0, 0.0, -9.81))
     d = IMPEDANCE[""]
     sim = ENGINE.build(scene, 1e-3, SE)
     sim.step(3000)

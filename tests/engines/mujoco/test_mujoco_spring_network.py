@@ -41,7 +41,7 @@ def hanging_chain(links=10, sag=0.3):
     edges = np.c_[np.arange(links), np.arange(1, links + 1)]
     net = SpringNetwork(positions=x, masses=0.1, edges=edges, stiffness=500.0,
                         rest_length=0.11, damping=0.5, pinned=[0, links])
-    return Scene(networks=(net,), gravity=G, linear_drag=0.05)
+    return Scene(parts=(net,), gravity=G, linear_drag=0.05)
 
 
 def string_mode(free=10, k=100.0, m=0.01, amp=0.01, mode=1):
@@ -54,7 +54,7 @@ def string_mode(free=10, k=100.0, m=0.01, amp=0.01, mode=1):
     net = SpringNetwork(positions=x, masses=m, edges=edges, stiffness=k, rest_length=0.0,
                         pinned=[0, free + 1])
     omega = 2 * np.sqrt(k / m) * np.sin(mode * np.pi / (2 * (free + 1)))
-    return Scene(networks=(net,), gravity=(0.0, 0.0, 0.0)), omega
+    return Scene(parts=(net,), gravity=(0.0, 0.0, 0.0)), omega
 
 
 def membrane_mode(free=4, k=100.0, m=0.01, amp=0.01, p=1, q=2):
@@ -71,7 +71,7 @@ def membrane_mode(free=4, k=100.0, m=0.01, amp=0.01, p=1, q=2):
                         pinned=ring)
     half_angle = np.array([p, q]) * np.pi / (2 * (n - 1))
     omega = 2 * np.sqrt(k / m) * np.sqrt(np.sum(np.sin(half_angle) ** 2))
-    return Scene(networks=(net,), gravity=(0.0, 0.0, 0.0)), omega
+    return Scene(parts=(net,), gravity=(0.0, 0.0, 0.0)), omega
 
 
 def small_cloth(side=4, spacing=0.1, pretension=1.0):
@@ -91,12 +91,12 @@ def small_cloth(side=4, spacing=0.1, pretension=1.0):
     rest = np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1) / pretension
     net = SpringNetwork(positions=x, masses=0.02, edges=edges, stiffness=200.0, damping=0.05,
                         rest_length=rest, velocities=velocities, pinned=pinned)
-    return Scene(networks=(net,), gravity=G, linear_drag=0.01)
+    return Scene(parts=(net,), gravity=G, linear_drag=0.01)
 
 
 def _force_scale(scene, x, v) -> float:
     """max over nodes of the sum of the force terms' magnitudes over the mass (module doc)."""
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     i, j = net.edges.T
     d = np.linalg.norm(x[i] - x[j], axis=1)
     term = net.stiffness * (d + net.rest_length) + \
@@ -123,7 +123,7 @@ def _run_both(scene, dt, integrator, steps):
 def test_same_step_as_refsim_to_round_off(make, dt, integrator):
     scene, steps = make(), 50
     ref, got = _run_both(scene, dt, integrator, steps)
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     scale = max(_force_scale(scene, net.positions, net.velocities),
                 _force_scale(scene, ref["x"], ref["v"]))
     c = ROUNDINGS * STAGES[integrator] * EPS * steps
@@ -139,8 +139,8 @@ def test_pinned_nodes_stay_and_observation_contract():
     sim.step(20)
     obs = sim.observe()
     assert check_observation(obs, scene) == []
-    pinned = scene.networks[0].pinned
-    assert np.array_equal(obs["x"][pinned], scene.networks[0].positions[pinned])
+    pinned = scene.part(SpringNetwork).pinned
+    assert np.array_equal(obs["x"][pinned], scene.part(SpringNetwork).positions[pinned])
     assert not obs["v"][pinned].any()
 
 
@@ -163,7 +163,7 @@ def test_normal_mode_is_the_exact_discrete_oscillation(make, integrator):
     round-off ROUNDINGS eps |z| per step adds up linearly: N ROUNDINGS stages eps amp."""
     scene, omega = make()
     h, steps = 2 * np.pi / omega / 200, 200  # one period
-    z0 = scene.networks[0].positions[:, 2]
+    z0 = scene.part(SpringNetwork).positions[:, 2]
     sim = MJ.build(scene, h, integrator)
     step, state = _step_matrix(integrator, omega, h), np.array([1.0, 0.0])
     worst = 0.0
@@ -186,7 +186,7 @@ def test_mode_frequency_is_omega_n(make):
     y = omega * h
     sim = MJ.build(scene, h, "rk4")
     sim.step(steps)
-    z0 = scene.networks[0].positions[:, 2]
+    z0 = scene.part(SpringNetwork).positions[:, 2]
     error = np.abs(sim.observe()["x"][:, 2] - z0 * np.cos(omega * steps * h)).max()
     assert error <= steps * (y ** 5 / 120 + y ** 6 / 144) * np.abs(z0).max()
 
@@ -197,7 +197,7 @@ def _partial_k_step(scene, x, v, h, deadband=True):
     the step MuJoCo's `discrete` takes (no geometric stiffness), on the free nodes; with
     `deadband`, a tendon exactly at its rest length adds no stiffness (MuJoCo's closed
     springlength deadband [L0, L0]). Returns (a of the free nodes flat, cond(M_hat))."""
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     free = np.ones(len(net), bool)
     free[net.pinned] = False
     index = np.cumsum(free) - 1
@@ -243,7 +243,7 @@ def test_discrete_is_backward_euler_without_geometric_stiffness(make, dt):
     cond(M_hat) ROUNDINGS eps |a| h (a direct Cholesky/Newton solve of that system, no
     constraints), and differs from refsim's Baraff-Witkin (full Jacobian) by far more."""
     scene = make()
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     accel, cond = _partial_k_step(scene, net.positions, net.velocities, dt)
     sim = MJ.build(scene, dt, "discrete")
     sim.step(1)
@@ -264,10 +264,10 @@ def test_discrete_drops_the_stiffness_of_a_tendon_exactly_at_rest():
     and MuJoCo round alike) steps as the replica without K (same bound as above), far from the
     replica with K. Euler and RK4 are unaffected (the force is 0 either way)."""
     cloth = small_cloth()
-    net = cloth.networks[0]
+    net = cloth.part(SpringNetwork)
     still = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                           stiffness=net.stiffness, damping=net.damping, pinned=net.pinned)
-    scene = Scene(networks=(still,), gravity=G)
+    scene = Scene(parts=(still,), gravity=G)
     h = 1e-3
     accel, cond = _partial_k_step(scene, still.positions, still.velocities, h)
     with_k, _ = _partial_k_step(scene, still.positions, still.velocities, h, deadband=False)
@@ -289,12 +289,12 @@ def test_refusals_name_the_reason():
     assert "discrete" in MJ.supports(scene, "baraff_witkin")
     with pytest.raises(ValueError):
         MJ.build(scene, 1e-3, "baraff_witkin")
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     hair = SpringNetwork(positions=net.positions, masses=0.1, edges=net.edges, stiffness=500.0,
                          hinges=np.c_[np.arange(9), np.arange(1, 10), np.arange(2, 11)],
                          hinge_stiffness=0.1, pinned=[0, 1])
-    assert "hinges" in MJ.supports(Scene(networks=(hair,), gravity=G), "rk4")
-    two = Scene(networks=(net, net), gravity=G)
+    assert "hinges" in MJ.supports(Scene(parts=(hair,), gravity=G), "rk4")
+    two = Scene(parts=(net, net), gravity=G)
     assert "one network" in MJ.supports(two, "rk4")
 
 
