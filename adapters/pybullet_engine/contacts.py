@@ -1,4 +1,5 @@
-"""Contact scenes (features "contacts" and "walls"): free spheres and static walls.
+"""Contact scenes (features "contacts" and "walls", the spheres group): free spheres and static
+walls, and the contact parameters the rolling group shares.
 
 Each sphere is a free `btRigidBody` (`createMultiBody(useMaximalCoordinates=1)`, batch-created
 with `batchPositions`) with a GEOM_SPHERE shape; a wall is a static body: a box slab per face
@@ -39,7 +40,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..common.checks import non_sphere_bodies, spheres_without_inertia, walls_without_contact
 from ..common.contacts import per_shape_coefficients
 from .runtime import INTEGRATOR
 
@@ -67,18 +67,6 @@ CONTACT_DEFAULTS = {
     "enableConeFriction / useSplitImpulse / erp / frictionERP / deterministicOverlappingPairs":
         "no measured effect on these cases; set explicitly so the settings are known",
 }
-
-
-def contact_mismatch(scene):
-    """A reason when the adapter cannot build the scene's contacts faithfully, else None."""
-    if scene.contact is None:
-        return walls_without_contact(scene, WHO)
-    if scene.joints:
-        return ("pybullet adapter: contacts are built for free spheres only (a body on a rod "
-                "is a multibody link without a collision shape)")
-    return (non_sphere_bodies(scene, WHO)
-            or spheres_without_inertia(scene, WHO, friction_only=True, why=(
-                "; Bullet reads a zero inertia as infinite (no spin), not as zero")))
 
 
 def box_bounds(walls):
@@ -134,11 +122,10 @@ def materials(contact):
                 rollingFriction=0.0, spinningFriction=0.0)
 
 
-def build_spheres(p, cid, scene):
-    """One free btRigidBody per sphere, created in batches of equal (mass, radius) with
-    `batchPositions`, then mass, inertia, materials, damping and velocities per body;
-    (body id, -1) per scene body."""
-    bodies = scene.bodies
+def build_spheres(p, cid, bodies, contact):
+    """One free btRigidBody per sphere (`bodies`: `Body` records), created in batches of equal
+    (mass, radius) with `batchPositions`, then mass, inertia, the materials of the `contact`
+    model, damping and velocities per body; (body id, -1) per body."""
     groups = {}
     for i, b in enumerate(bodies):
         groups.setdefault((b.mass, b.radius), []).append(i)
@@ -150,7 +137,7 @@ def build_spheres(p, cid, scene):
                                  useMaximalCoordinates=1, physicsClientId=cid)
         for i, uid in zip(members, made):
             uids[i] = uid
-    per_body = materials(scene.contact)
+    per_body = materials(contact)
     for uid, b in zip(uids, bodies):
         p.changeDynamics(uid, -1, mass=b.mass, localInertiaDiagonal=(b.inertia,) * 3,
                          linearDamping=0.0, angularDamping=0.0,
@@ -160,15 +147,15 @@ def build_spheres(p, cid, scene):
     return [(uid, -1) for uid in uids]
 
 
-def build_walls(p, cid, scene):
-    """Static bodies: one box slab per face when the walls are an axis-aligned box holding
-    the bodies (an infinite plane's AABB overlaps every sphere in the broad phase, so planes
-    cost 2.2x the step at N = 1000), else one infinite GEOM_PLANE per wall. Returns what was
-    built, in words."""
-    walls = scene.walls
+def build_walls(p, cid, walls, bodies, contact):
+    """Static bodies for `walls` (`Wall` records, () for none) around `bodies` (`Body`
+    records), with the `contact` model's materials: one box slab per face when the walls are an
+    axis-aligned box holding the bodies (an infinite plane's AABB overlaps every sphere in the
+    broad phase, so planes cost 2.2x the step at N = 1000), else one infinite GEOM_PLANE per
+    wall. Returns what was built, in words."""
     if not walls:
         return "none"
-    slabs = wall_slabs(walls, scene.bodies)
+    slabs = wall_slabs(walls, bodies)
     if slabs is not None:
         shapes = [(p.createCollisionShape(p.GEOM_BOX, halfExtents=half,
                                           physicsClientId=cid), centre)
@@ -179,7 +166,7 @@ def build_walls(p, cid, scene):
         shapes = [(p.createCollisionShape(p.GEOM_PLANE, planeNormal=w.normal,
                                           physicsClientId=cid), w.point) for w in walls]
         built = f"{len(walls)} static infinite planes (GEOM_PLANE)"
-    per_wall = materials(scene.contact)
+    per_wall = materials(contact)
     for shape, where in shapes:
         uid = p.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape,
                                 basePosition=where, useMaximalCoordinates=1,
@@ -188,9 +175,10 @@ def build_walls(p, cid, scene):
     return built
 
 
-def contact_settings(scene, walls_built):
-    """The settings of a contact scene (they replace some of the multibody ones)."""
-    sqrt_e, sqrt_mu = per_shape_coefficients(scene.contact)
+def contact_settings(contact, inertias, walls_built):
+    """The settings of a contact scene: its `contact` model, the spheres' `inertias` and the
+    walls built (they replace some of the multibody ones)."""
+    sqrt_e, sqrt_mu = per_shape_coefficients(contact)
     return {
         "integrator": dict(INTEGRATOR, native=("semi-implicit Euler (btRigidBody: "
                                                "velocities, contact impulses included, "
@@ -219,7 +207,7 @@ def contact_settings(scene, walls_built):
         "useMaximalCoordinates": True,
         "inertia": ("the scene's, set with changeDynamics(mass, localInertiaDiagonal) "
                     "(without mass a maximal-coordinate body gets mass 0)"),
-        "inertia_values": sorted({b.inertia for b in scene.bodies}),  # distinct
+        "inertia_values": sorted(set(inertias)),  # distinct
         "collision_shapes": "GEOM_SPHERE per body; walls: " + walls_built,
         "maxJointVelocity": "n/a (rigid bodies have no speed clamp)",
     }

@@ -15,16 +15,18 @@ _ZERO = (0.0, 0.0, 0.0)
 
 
 class ForceTerms:
-    """Springs and linear drag, which pybullet lacks, as per-step external forces.
+    """Springs and linear drag, which pybullet lacks, as per-step external forces: `springs`
+    (`Spring` records, () for none), `drag` (the linear drag coefficient, 1/s), `nbody` (how
+    many bodies).
 
     Plain Python on tuples (not numpy): for one or two bodies this is several times cheaper, so
     the timing is pybullet's call overhead rather than the adapter's arithmetic."""
 
-    def __init__(self, scene):
+    def __init__(self, springs, drag: float, nbody: int):
         self.springs = [(s.body, s.other, s.anchor, s.stiffness, s.rest_length, s.damping)
-                        for s in scene.springs]
-        self.drag = scene.linear_drag
-        self.nbody = len(scene.bodies)
+                        for s in springs]
+        self.drag = drag
+        self.nbody = nbody
         needed = {s[0] for s in self.springs} | {s[1] for s in self.springs if s[1] is not None}
         self.bodies = sorted(range(self.nbody) if self.drag > 0 else needed)
         self.needs_v = self.drag > 0 or any(s[5] > 0 for s in self.springs)

@@ -20,29 +20,32 @@ import math
 import numpy as np
 
 from ..common.checks import rods_per_body
-from ..common.hinges import HingeFrames, rod_start_refusal
+from ..common.hinges import rod_start_refusal
 
 MAX_SPEED = math.inf  # replaces pybullet's 100 m/s multibody clamp
 WHO = "pybullet adapter"  # how the reasons name this engine
 
 
 def rods_mismatch(scene):
-    """A reason when a body has two rods or a rod a state its hinge cannot hold, else None."""
+    """A reason when a body has two rods or a rod a state its hinge cannot hold, else None
+    (for a scene holding rods: a `Joints` part)."""
     return (rods_per_body(scene, WHO, why=" (two rods on a body form a closed loop)")
             or rod_start_refusal(scene, WHO))
 
 
-def build_multibodies(p, cid, scene):
-    """(multibody id, link index) per scene body: -1 for a free base, 0 for a rod's link; and
-    the indices of the bodies on rods."""
-    frames = HingeFrames.from_scene(scene)
-    theta, omega = frames.initial_angles(scene.positions, scene.velocities)
-    rods = {int(b): k for k, b in enumerate(frames.bodies)}  # body -> its rod's index
+def build_multibodies(p, cid, particles, joints=(), frames=None):
+    """(multibody id, link index) per body of `particles` (the `Particles` part): -1 for a free
+    base, 0 for a rod's link; and the indices of the bodies on rods. `joints`: the rods'
+    `Joint` records (() for none) with their `frames` (a HingeFrames)."""
+    theta, omega, rods = (), (), {}
+    if joints:
+        theta, omega = frames.initial_angles(particles.position, particles.velocity)
+        rods = {int(b): k for k, b in enumerate(frames.bodies)}  # body -> its rod's index
     handles, hinges = [], []
-    for i, body in enumerate(scene.bodies):
+    for i, body in enumerate(particles.to_records()):
         if i in rods:
             k = rods[i]
-            handles.append((hinge_body(p, cid, body, scene.joints[k], frames.d[k],
+            handles.append((hinge_body(p, cid, body, joints[k], frames.d[k],
                                        (theta[k], omega[k])), 0))
             hinges.append(i)
         else:
@@ -94,8 +97,9 @@ def exact_dynamics(p, cid, uid, link, inertia):
     p.changeDynamics(uid, link, **kw)
 
 
-def multibody_settings(scene, hinges):
-    """The settings of the multibody formulation (a contact scene overrides some of them)."""
+def multibody_settings(particles, hinges):
+    """The settings of the multibody formulation for the `Particles` part (the spheres group
+    overrides some of them)."""
     return {
         "formulation": ("generalized coordinates: fixed base at the anchor + revolute link "
                         "per rod (Featherstone)" if hinges else "free multibody base"),
@@ -103,7 +107,7 @@ def multibody_settings(scene, hinges):
         "linearDamping": 0.0, "angularDamping": 0.0,
         "maxJointVelocity": "inf (default 100 m/s clamp removed)",
         "inertia": "as given by the scene (0 for a point mass) via localInertiaDiagonal",
-        "inertia_values": [b.inertia for b in scene.bodies],
+        "inertia_values": particles.inertia.tolist(),
         "collision_shapes": "none (nothing collides; no ground plane)",
         "sleeping": "disabled",
     }

@@ -1,5 +1,7 @@
-"""The pybullet Sim: one DIRECT client per build, the world's parameters, stepping, observing
-and the settings that state every parameter changed from pybullet's defaults.
+"""The Sim the particles and spheres groups share: one DIRECT client per build, the world's
+parameters, stepping with the external forces, observing and the settings that state every
+parameter changed from pybullet's defaults. A group's subclass builds the bodies
+(`_build_bodies`) and adds its own observables, stages and settings.
 
 Facts applied, measured on pybullet 3.2.7 (docs/engine_notes.md#pybullet): gravity defaults
 to 0 and the step to 1/240 s: both are set; `fixedTimeStep` is the whole step, `numSubSteps=0`
@@ -12,39 +14,42 @@ import numpy as np
 
 from refsim.engine import Sim
 
-from .contacts import CONTACT_PARAMS, build_spheres, build_walls, contact_settings
-from .forces import ForceTerms
-from .multibodies import build_multibodies, hinge_settings, multibody_settings
+from .multibodies import multibody_settings
 from .runtime import INTEGRATOR, OwnsClient, body_state, c_stdout_silenced
 
 
 class PybulletSim(OwnsClient, Sim):
-    def __init__(self, p, scene, dt):
+    """The bodies of `particles` (the scene's `Particles` part) under the scene's gravity and
+    the external `forces` (forces.ForceTerms). Subclasses set `world_params` (further
+    setPhysicsEngineParameter values), `model_stages` and `_build_bodies`."""
+
+    world_params: dict = {}  # setPhysicsEngineParameter values beyond the step (a contact model's)
+    model_stages: tuple = ()  # the model's stages between the forces and the integration
+
+    def __init__(self, p, scene, dt, particles, forces):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
+        self.particles, self.forces, self.hinges = particles, forces, []
         with c_stdout_silenced():
             self.client = p.connect(p.DIRECT)
-        self.contact = scene.contact
-        self.walls_built = "none"
         try:
             self.engine_params = self._configure_world()
-            if self.contact is not None:
-                self.handles, self.hinges = build_spheres(p, self.client, scene), []
-                self.walls_built = build_walls(p, self.client, scene)
-            else:
-                self.handles, self.hinges = build_multibodies(p, self.client, scene)
-            self.forces = ForceTerms(scene)
-            self._apply = self.forces.applier(p, self.client, self.handles)
+            self.handles = self._build_bodies()
+            self._apply = forces.applier(p, self.client, self.handles)
         except Exception:
             self.close()
             raise
 
+    def _build_bodies(self) -> list:
+        """(body id, link index) per body of `self.particles`."""
+        raise NotImplementedError
+
     def _configure_world(self):
-        """Gravity, the step, the contact parameters; the effective values, read back."""
+        """Gravity, the step, the model's parameters; the effective values, read back."""
         p, cid = self.p, self.client
         p.setGravity(*self.scene.gravity, physicsClientId=cid)
         p.setPhysicsEngineParameter(fixedTimeStep=self.dt, numSubSteps=0, physicsClientId=cid)
-        if self.contact is not None:
-            p.setPhysicsEngineParameter(**CONTACT_PARAMS, physicsClientId=cid)
+        if self.world_params:
+            p.setPhysicsEngineParameter(**self.world_params, physicsClientId=cid)
         return p.getPhysicsEngineParameters(physicsClientId=cid)
 
     # -- contract ------------------------------------------------------------------------------
@@ -60,23 +65,12 @@ class PybulletSim(OwnsClient, Sim):
 
     def _observe(self):
         states = [body_state(self.p, self.client, uid, link) for uid, link in self.handles]
-        out = {"x": np.array([s[0] for s in states], float),
-               "v": np.array([s[1] for s in states], float)}
-        if self.scene.joints:
-            out["constraint"] = np.zeros(len(self.scene.joints))  # generalized coordinates
-        if self.contact is not None:
-            out["w"] = np.array([self.p.getBaseVelocity(uid, physicsClientId=self.client)[1]
-                                 for uid, _ in self.handles], float)
-        return out
+        return {"x": np.array([s[0] for s in states], float),
+                "v": np.array([s[1] for s in states], float)}
 
     def settings(self):
-        out = {**self._world_settings(), **multibody_settings(self.scene, self.hinges),
-               "stages": self._stages(), **self.forces.describe(self.handles)}
-        if self.contact is not None:
-            out.update(contact_settings(self.scene, self.walls_built))
-        if self.hinges:
-            out.update(hinge_settings())
-        return out
+        return {**self._world_settings(), **multibody_settings(self.particles, self.hinges),
+                "stages": self._stages(), **self.forces.describe(self.handles)}
 
     def _world_settings(self):
         prm = self.engine_params
@@ -91,8 +85,5 @@ class PybulletSim(OwnsClient, Sim):
 
     def _stages(self):
         stages = ["gravity"] if any(self.scene.gravity) else []
-        stages += self.forces.names() + (["revolute_generalized"] if self.hinges else [])
-        if self.contact is not None:
-            stages += ["contacts:discrete_detection", "contacts:impulses"]
-        return stages + ["integrate:symplectic_euler"]
-
+        return stages + self.forces.names() + list(self.model_stages) + \
+            ["integrate:symplectic_euler"]

@@ -41,6 +41,8 @@ import tempfile
 import numpy as np
 import scipy.sparse as sp
 
+from refsim.scene import SpringNetwork
+
 CAPTURE_DT = 1e-9  # s: the rest-length capture step (forces are ~0 there; gravity is off)
 MAX_DISPLACEMENT = 1000.0  # m: btSoftBodyWorldInfo::m_maxDisplacement (per-component clamp)
 SLEEP_SPEED, SLEEP_TIME = 0.04, 2.0  # m/s, s: btSoftBody m_sleepingThreshold, gDeactivationTime
@@ -66,7 +68,7 @@ def rest_scale(net) -> float | None:
 
 def softbody_reason(scene) -> str | None:
     """Why pybullet's mass-spring soft body cannot be this network, or None."""
-    net = scene.networks[0]
+    net = scene.parts_of(SpringNetwork)[0]
     who = "pybullet softbody"
     if len(net.hinges) or len(net.dihedrals):
         return (f"{who}: no angle springs (its 'bending springs' are stretch links between nodes "
@@ -136,7 +138,7 @@ def write_obj(path, positions, tris) -> None:
 def load_network(p, cid, scene) -> int:
     """The network as a soft body with its rest lengths captured and pinned nodes anchored;
     the nodes at the scene's positions, at rest. Returns the body id."""
-    net = scene.networks[0]
+    net = scene.parts_of(SpringNetwork)[0]
     free = np.ones(len(net), bool)
     free[net.pinned] = False
     node_mass = float(net.masses[free][0]) if free.any() else float(net.masses[0])

@@ -1,16 +1,16 @@
 """pybullet's rolling group: rigid bodies with collision shapes (`RigidShapes`) on walls, with
 friction: a disc rolling or slipping on an incline.
 
-Module named so that it sorts before `rigid` (discover_groups takes the first group that claims
-a scene; `rigid` claims every rigid scene). Each body is a `btRigidBody`
-(`useMaximalCoordinates=1`, as the sphere adapter) with a GEOM_SPHERE of the shape's radius,
-for a cylinder too (CYLINDER_NOTE: Bullet's cylinder lifts off and slips); mass and the scene's
-diagonal inertia set with changeDynamics (never the shape's). Each wall is a static GEOM_PLANE
-through its point. The sphere adapter's contact settings apply (adapters/pybullet_engine/
-contacts.py CONTACT_PARAMS: contactERP = erp = frictionERP = 0, split impulse off, slop 0,
-breaking threshold 1e-12 m, 50 iterations to convergence, cone friction), and its materials:
-Bullet multiplies the pair's restitution and lateral friction, so every body and wall gets
-sqrt(e) = 0 and sqrt(mu); rolling and spinning friction 0; damping 0; sleeping off.
+Claims every rigid scene with shapes (the pivots and rigid groups leave those out). Each body
+is a `btRigidBody` (`useMaximalCoordinates=1`, as the spheres group) with a GEOM_SPHERE of the
+shape's radius, for a cylinder too (CYLINDER_NOTE: Bullet's cylinder lifts off and slips);
+mass and the scene's diagonal inertia set with changeDynamics (never the shape's). Each wall is
+a static GEOM_PLANE through its point. The spheres group's contact settings apply
+(adapters/pybullet_engine/contacts.py CONTACT_PARAMS: contactERP = erp = frictionERP = 0, split
+impulse off, slop 0, breaking threshold 1e-12 m, 50 iterations to convergence, cone friction),
+and its materials: Bullet multiplies the pair's restitution and lateral friction, so every body
+and wall gets sqrt(e) = 0 and sqrt(mu); rolling and spinning friction 0; damping 0; sleeping
+off.
 Step: semi-implicit Euler (velocities with the contact impulses, then positions): kick-drift,
 s_k = a h^2 k (k + 1) / 2 on a constant a. Observables: x, v, q (w, x, y, z), w (world),
 orientation_defect (|q|^2 - 1 of Bullet's quaternion).
@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.engine import ModelGroup, Sim
-from refsim.scene.rigid_shapes import rolling_scene_refusal, shapes_of
+from refsim.scene import RigidBodies, Walls
+from refsim.scene.rigid_shapes import RigidShapes, rolling_scene_refusal
 
 from ..contacts import CONTACT_PARAMS, materials
 from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
@@ -35,19 +36,19 @@ CYLINDER_NOTE = (
 
 
 def claims(scene) -> bool:
-    return getattr(scene, "rigid", None) is not None and shapes_of(scene) is not None
+    return scene.part(RigidBodies) is not None and scene.part(RigidShapes) is not None
 
 
 def supports(engine, scene, integrator):
     if integrator is not None and integrator != "symplectic_euler":
         return f"pybullet's symplectic_euler takes no parameter, got {integrator!r}"
-    inertia = scene.rigid.inertia
+    inertia = scene.part(RigidBodies).inertia
     if np.any(inertia - inertia * np.eye(3)):
         return f"{WHO}: the rolling group takes diagonal body-frame inertia tensors only"
     return rolling_scene_refusal(scene, WHO)
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     return PybulletRollingSim(import_pybullet(), scene, dt)
 
 
@@ -55,12 +56,14 @@ MODEL_GROUP = ModelGroup(
     name="rolling", build=build, claims=claims,
     parts=frozenset({"rigid", "rigid_shapes", "walls"}),
     features=frozenset({"rigid", "shapes", "walls", "contacts", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=("symplectic_euler",))
+    integrators=("symplectic_euler",))
 
 
 class PybulletRollingSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
+        self.rigid, self.shapes = scene.part(RigidBodies), scene.part(RigidShapes)
+        walls = scene.part(Walls)
         self.material = materials(scene.contact)
         with c_stdout_silenced():
             self.client = p.connect(p.DIRECT)
@@ -69,9 +72,8 @@ class PybulletRollingSim(OwnsClient, Sim):
             p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=0,
                                         physicsClientId=self.client, **CONTACT_PARAMS)
             self.engine_params = p.getPhysicsEngineParameters(physicsClientId=self.client)
-            self.walls = [self._wall(pt, n) for pt, n in zip(scene.wall_set.point,
-                                                              scene.wall_set.normal)]
-            self.uids = [self._body(i) for i in range(len(scene.rigid))]
+            self.walls = [self._wall(pt, n) for pt, n in zip(walls.point, walls.normal)]
+            self.uids = [self._body(i) for i in range(len(self.rigid))]
         except Exception:
             self.close()
             raise
@@ -86,7 +88,7 @@ class PybulletRollingSim(OwnsClient, Sim):
         return uid
 
     def _body(self, i):
-        p, cid, rigid, shapes = self.p, self.client, self.scene.rigid, shapes_of(self.scene)
+        p, cid, rigid, shapes = self.p, self.client, self.rigid, self.shapes
         j = int(np.flatnonzero(shapes.body == i)[0])
         shape = p.createCollisionShape(p.GEOM_SPHERE, radius=float(shapes.radius[j]),
                                        physicsClientId=cid)  # every kind: see CYLINDER_NOTE

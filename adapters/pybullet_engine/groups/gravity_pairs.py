@@ -21,7 +21,8 @@ import numpy as np
 
 from refsim.engine import ModelGroup, Sim
 from refsim.models.nbody_gravity import pair_accelerations
-from refsim.scene.gravity_pairs import gravity_pairs_of
+from refsim.scene import Particles
+from refsim.scene.gravity_pairs import GravityPairs
 
 from ..multibodies import free_body, multibody_settings
 from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
@@ -41,7 +42,7 @@ def supports(engine, scene, integrator):
     return None
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     return PybulletGravitySim(import_pybullet(), scene, dt)
 
 
@@ -49,7 +50,7 @@ MODEL_GROUP = ModelGroup(
     name="gravity_pairs", build=build, claims=claims,
     parts=frozenset({"particles", "gravity_pairs"}),
     features=frozenset({"gravity_pairs", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=("symplectic_euler",))
+    integrators=("symplectic_euler",))
 
 
 class PybulletGravitySim(OwnsClient, Sim):
@@ -57,9 +58,9 @@ class PybulletGravitySim(OwnsClient, Sim):
 
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
-        part = gravity_pairs_of(scene)
+        part, self.particles = scene.part(GravityPairs), scene.part(Particles)
         self.G, self.softening = part.G, part.softening
-        self.masses = np.array(scene.masses)
+        self.masses = np.array(self.particles.mass)
         with c_stdout_silenced():
             self.client = p.connect(p.DIRECT)
         try:
@@ -67,7 +68,8 @@ class PybulletGravitySim(OwnsClient, Sim):
             p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=0,
                                         physicsClientId=self.client)
             self.engine_params = p.getPhysicsEngineParameters(physicsClientId=self.client)
-            self.uids = [free_body(p, self.client, b) for b in scene.bodies]  # build time
+            self.uids = [free_body(p, self.client, b)  # build time
+                         for b in self.particles.to_records()]
             self._check_masses()
         except Exception:
             self.close()
@@ -105,7 +107,7 @@ class PybulletGravitySim(OwnsClient, Sim):
             "dtype": "float64", "threads": 1, "connection": "DIRECT",
             "fixedTimeStep": prm["fixedTimeStep"], "numSubSteps": prm["numSubSteps"],
             "gravity": [prm[f"gravityAcceleration{c}"] for c in "XYZ"],
-            **multibody_settings(self.scene, []),
+            **multibody_settings(self.particles, []),
             "external_force_method": (
                 "applyExternalForce(link -1, m a(x_k), at the base position, WORLD_FRAME) "
                 "before every stepSimulation, from the positions at the step's start (cleared "

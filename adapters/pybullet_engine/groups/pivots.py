@@ -30,7 +30,9 @@ import math
 import numpy as np
 
 from refsim.engine import ModelGroup, Sim
-from refsim.scene.pivots import check_on_anchor, pivots_of
+from refsim.scene import RigidBodies
+from refsim.scene.pivots import RigidPivots, check_on_anchor
+from refsim.scene.rigid_shapes import RigidShapes
 
 from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
 from .rigid_frames import PrincipalFrames, xyzw_to_matrices
@@ -41,13 +43,15 @@ INERTIA_RTOL = 1e-12  # read-back moments vs the scene's: Bullet stores them as 
 
 
 def claims(scene) -> bool:
-    return getattr(scene, "rigid", None) is not None and pivots_of(scene) is not None
+    """Rigid bodies on pivots (with shapes they are the rolling group's)."""
+    return scene.part(RigidBodies) is not None and scene.part(RigidPivots) is not None and \
+        scene.part(RigidShapes) is None
 
 
 def supports(engine, scene, integrator):
     if integrator is not None and integrator != "symplectic_euler":
         return f"pybullet's symplectic_euler takes no parameter, got {integrator!r}"
-    pivots, rigid = pivots_of(scene), scene.rigid
+    pivots, rigid = scene.part(RigidPivots), scene.part(RigidBodies)
     try:
         check_on_anchor(pivots, rigid)
     except ValueError as exc:
@@ -58,21 +62,22 @@ def supports(engine, scene, integrator):
     return None
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     return PybulletPivotSim(import_pybullet(), scene, dt)
 
 
 MODEL_GROUP = ModelGroup(
     name="pivots", build=build, claims=claims, parts=frozenset({"rigid", "rigid_pivots"}),
     features=frozenset({"rigid", "pivots", "gravity"}), supports=supports,
-    variants=lambda engine, scene: ("",), integrators=("symplectic_euler",))
+    integrators=("symplectic_euler",))
 
 
 class PybulletPivotSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
-        self.pivots, self.order = pivots_of(scene), pivots_of(scene).body
-        self.frames = PrincipalFrames.of(scene.rigid.inertia[self.order])
+        self.rigid, self.pivots = scene.part(RigidBodies), scene.part(RigidPivots)
+        self.order = self.pivots.body
+        self.frames = PrincipalFrames.of(self.rigid.inertia[self.order])
         with c_stdout_silenced():
             self.client = p.connect(p.DIRECT)
         try:
@@ -90,7 +95,7 @@ class PybulletPivotSim(OwnsClient, Sim):
 
     def _build_pivot(self, i, shape):
         """Fixed base at the anchor, one spherical link in the principal frame, state set."""
-        p, cid, rigid = self.p, self.client, self.scene.rigid
+        p, cid, rigid = self.p, self.client, self.rigid
         b = self.order[i]
         com_in_link = -self.frames.axes[i].T @ self.pivots.body_point[i]
         uid = p.createMultiBody(
@@ -123,7 +128,7 @@ class PybulletPivotSim(OwnsClient, Sim):
 
     def _check_dynamics(self):
         """The link's mass and principal moments are the scene's, the base is fixed (mass 0)."""
-        p, cid, rigid = self.p, self.client, self.scene.rigid
+        p, cid, rigid = self.p, self.client, self.rigid
         for i, uid in enumerate(self.uids):
             base = p.getDynamicsInfo(uid, -1, physicsClientId=cid)
             link = p.getDynamicsInfo(uid, 0, physicsClientId=cid)
@@ -138,7 +143,7 @@ class PybulletPivotSim(OwnsClient, Sim):
             step(physicsClientId=cid)
 
     def _observe(self):
-        p, cid, n = self.p, self.client, len(self.scene.rigid)
+        p, cid, n = self.p, self.client, len(self.rigid)
         states = [p.getLinkState(u, 0, computeLinkVelocity=1, computeForwardKinematics=1,
                                  physicsClientId=cid) for u in self.uids]
         joint_q = np.array([p.getJointStateMultiDof(u, 0, physicsClientId=cid)[0]

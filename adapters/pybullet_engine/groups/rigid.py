@@ -1,6 +1,6 @@
 """pybullet's rigid-body group: free bodies with a full inertia tensor (the `rigid` part).
 
-Two formulations (engine variants), both stepped by Bullet's semi-implicit Euler (velocities
+Two formulations, both stepped by Bullet's semi-implicit Euler (velocities
 from the state at k, then positions and orientations with the new velocities):
 - "multibody" (default): each body a floating `btMultiBody` base. The gyroscopic term
   w x I w is EXPLICIT (Featherstone bias force, btMultiBody m_useGyroTerm): world
@@ -37,11 +37,14 @@ import math
 import numpy as np
 
 from refsim.engine import ModelGroup, Sim
+from refsim.scene import RigidBodies
+from refsim.scene.pivots import RigidPivots
+from refsim.scene.rigid_shapes import RigidShapes
 
 from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
 from .rigid_frames import PrincipalFrames, rigid_energy, world_inertia, xyzw_to_matrices
 
-VARIANTS = ("multibody", "maximal")
+FORMULATIONS = ("multibody", "maximal")
 COLLISION_RADIUS = 1e-3  # m: the shape createMultiBody needs; never collides (filter 0)
 MAX_COORDINATE_VELOCITY = math.inf  # replaces the multibody base's 100 m/s, 100 rad/s clamp
 ANGULAR_MOTION_THRESHOLD = 0.25 * math.pi  # Bullet's per-step rotation limit on |w| h
@@ -59,8 +62,10 @@ SYMPLECTIC_NOTE = ("kick-drift, but not symplectic on rotation: |L| and E change
 
 
 def claims(scene) -> bool:
-    """Scenes holding rigid bodies (other parts with them are refused by the parts check)."""
-    return scene.rigid is not None
+    """Scenes holding free rigid bodies: no pivots (the pivots group's) and no shapes (the
+    rolling group's); other parts with them are refused by the parts check."""
+    return scene.part(RigidBodies) is not None and scene.part(RigidPivots) is None and \
+        scene.part(RigidShapes) is None
 
 
 def supports(engine, scene, integrator):
@@ -69,27 +74,27 @@ def supports(engine, scene, integrator):
     return None
 
 
-def variants(engine, scene):
-    return VARIANTS
+def formulations(engine, scene):
+    return FORMULATIONS
 
 
-def build(engine, scene, dt, integrator, variant):
-    return PybulletRigidSim(import_pybullet(), scene, dt, variant or VARIANTS[0])
+def build(engine, scene, dt, integrator, formulation):
+    return PybulletRigidSim(import_pybullet(), scene, dt, formulation or FORMULATIONS[0])
 
 
 MODEL_GROUP = ModelGroup(
     name="rigid", build=build, claims=claims, parts=frozenset({"rigid"}),
-    features=frozenset({"rigid", "gravity"}), supports=supports, variants=variants,
+    features=frozenset({"rigid", "gravity"}), supports=supports, formulations=formulations,
     integrators=("symplectic_euler",))
 
 
 class PybulletRigidSim(OwnsClient, Sim):
-    def __init__(self, p, scene, dt, variant):
-        if variant not in VARIANTS:
-            raise ValueError(f"pybullet rigid variant must be one of {list(VARIANTS)}, got "
-                             f"{variant!r}")
-        self.p, self.scene, self.dt, self.variant, self.steps = p, scene, dt, variant, 0
-        self.rigid = scene.rigid
+    def __init__(self, p, scene, dt, formulation):
+        if formulation not in FORMULATIONS:
+            raise ValueError(f"pybullet rigid formulation must be one of {list(FORMULATIONS)}, "
+                             f"got {formulation!r}")
+        self.p, self.scene, self.dt, self.formulation, self.steps = p, scene, dt, formulation, 0
+        self.rigid = scene.part(RigidBodies)
         self.frames = PrincipalFrames.of(self.rigid.inertia)
         with c_stdout_silenced():
             self.client = p.connect(p.DIRECT)
@@ -108,7 +113,7 @@ class PybulletRigidSim(OwnsClient, Sim):
         shape = p.createCollisionShape(p.GEOM_SPHERE, radius=COLLISION_RADIUS,
                                        physicsClientId=cid)
         q_engine = self.frames.engine_orientation(rigid.orientation)
-        maximal = int(self.variant == "maximal")
+        maximal = int(self.formulation == "maximal")
         uids = []
         for i in range(len(rigid)):  # build time: one pybullet body per scene body
             uid = p.createMultiBody(
@@ -159,23 +164,23 @@ class PybulletRigidSim(OwnsClient, Sim):
     def settings(self):
         prm = self.engine_params
         native = ("semi-implicit Euler (btMultiBody base: velocities, then positions)"
-                  if self.variant == "multibody" else
+                  if self.formulation == "multibody" else
                   "semi-implicit Euler (btRigidBody in btMultiBodyDynamicsWorld: velocities "
                   "with the implicit gyroscopic impulse, then positions)")
         w_h = float(np.max(np.linalg.norm(self.rigid.angular_velocity, axis=1))) * self.dt
         return {
             "integrator": {**INTEGRATOR, "native": native, "symplectic": False,
                            "symplectic_note": SYMPLECTIC_NOTE}, "dtype": "float64",
-            "threads": 1, "connection": "DIRECT", "formulation": self.variant,
-            "useMaximalCoordinates": self.variant == "maximal",
+            "threads": 1, "connection": "DIRECT", "formulation": self.formulation,
+            "useMaximalCoordinates": self.formulation == "maximal",
             "fixedTimeStep": prm["fixedTimeStep"], "numSubSteps": prm["numSubSteps"],
             "gravity": [prm[f"gravityAcceleration{c}"] for c in "XYZ"],
             "linearDamping": 0.0, "angularDamping": 0.0,
             "maxJointVelocity": ("inf (the multibody base's 100 m/s, 100 rad/s per-component "
-                                 "clamp removed)" if self.variant == "multibody" else
+                                 "clamp removed)" if self.formulation == "multibody" else
                                  "not applicable (btRigidBody: no clamp measured, |w| h = 4 "
                                  "kept)"),
-            "gyroscopic": GYROSCOPIC[self.variant],
+            "gyroscopic": GYROSCOPIC[self.formulation],
             "orientation_update": "exponential map exp(h w/2) (x) q, normalised each step",
             "orientation_step_limit": {
                 "threshold_w_h": ANGULAR_MOTION_THRESHOLD,
@@ -189,7 +194,7 @@ class PybulletRigidSim(OwnsClient, Sim):
                                "0 (never collides); its inertia replaced",
             "sleeping": "disabled",
             "stages": (["gravity"] if any(self.scene.gravity) else [])
-            + ["gyroscopic:" + ("explicit" if self.variant == "multibody" else
+            + ["gyroscopic:" + ("explicit" if self.formulation == "multibody" else
                                 "implicit_body_one_newton_step"),
                "integrate:symplectic_euler", "orientation:exp_map_normalised"],
         }

@@ -17,6 +17,7 @@ import numpy as np
 
 from refsim_adapters.common.spring_network import claims, observation, scene_reason
 from refsim.engine import ModelGroup, Sim
+from refsim.scene import SpringNetwork
 
 from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
 from ..softbody import (
@@ -41,7 +42,7 @@ STEPPER_REASON = ("pybullet's deformable world has one stepper (explicit elastic
 class PybulletNetworkSim(OwnsClient, Sim):
     def __init__(self, p, scene, dt):
         self.p, self.scene, self.dt, self.steps = p, scene, dt, 0
-        self.net = scene.networks[0]
+        self.net = scene.parts_of(SpringNetwork)[0]
         with c_stdout_silenced():
             self.client = p.connect(p.DIRECT)
         try:
@@ -119,7 +120,7 @@ def supports(engine, scene, integrator):
     return softbody_reason(scene)
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     return PybulletNetworkSim(import_pybullet(), scene, dt)
 
 
@@ -127,5 +128,5 @@ MODEL_GROUP = ModelGroup(name="spring_network", build=build, claims=claims,
                          parts=frozenset({"networks"}),
                          features=frozenset({"networks", "gravity", "drag"}),
                          supports=supports,
-                         variants=lambda engine, scene: tuple(FORMULATIONS),
+                         formulations=lambda engine, scene: tuple(FORMULATIONS),
                          integrators=("symplectic_euler",))

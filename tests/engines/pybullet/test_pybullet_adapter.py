@@ -17,7 +17,7 @@ from refsim.registry import get_engine
 from refsim.registry import get_case
 from refsim.run.metrics import bisect_limit
 from refsim.run.job import Job, run_job
-from refsim.scene import Body, Joint, Scene, Spring
+from refsim.scene import Body, Joint, Joints, Particles, Scene, Spring, Springs
 from refsim.testing import accuracy, assert_consistent, measured_order
 
 ENGINE = get_engine("pybullet")
@@ -38,8 +38,8 @@ def _pendulum_with_drag():
     L, th = 0.8, 1.2
     bob = Body(mass=0.7, position=(L * np.sin(th), 0.0, -L * np.cos(th)), name="bob")
     rod = Joint(body=0, anchor=(0.0, 0.0, 0.0), length=L)
-    return Scene(bodies=(bob,), joints=(rod,), gravity=(0.0, 0.0, -9.81), linear_drag=0.3,
-                 planar=True), 1e-3, 2000
+    return Scene(parts=(Particles.of((bob,)), Joints.of((rod,))), gravity=(0.0, 0.0, -9.81),
+                 linear_drag=0.3, planar=True), 1e-3, 2000
 
 
 def _two_bodies_springs_drag():
@@ -49,7 +49,7 @@ def _two_bodies_springs_drag():
     b = Body(mass=2.0, position=(2.0, -0.3, 0.4), velocity=(0.3, 0.0, 0.0), name="b")
     springs = (Spring(body=0, stiffness=400.0, rest_length=1.0, damping=2.0),
                Spring(body=0, other=1, stiffness=900.0, rest_length=0.7, damping=5.0))
-    return Scene(bodies=(a, b), springs=springs, gravity=(0.0, 0.0, -9.81),
+    return Scene(parts=(Particles.of((a, b)), Springs.of(springs)), gravity=(0.0, 0.0, -9.81),
                  linear_drag=0.2), 1e-3, 2000
 
 
@@ -74,7 +74,7 @@ def test_agrees_with_refsim_kick_drift(label):
     and motor are off)."""
     scene, dt, steps = AGREEMENT[label]()
     sims = [ENGINE.build(scene, dt, SE),
-            REFSIM.build(scene, dt, SE, "generalized" if scene.joints else "")]
+            REFSIM.build(scene, dt, SE, "generalized" if scene.part(Joints) else "")]
     worst = 0.0
     try:
         for _ in range(steps // 10):
@@ -174,7 +174,8 @@ def _one_step_matrix(y, k=1e4, m=1.0, rest=1.0, a=1e-3):
     cols = []
     for u0, v0 in ((a, 0.0), (0.0, a * w0)):
         body = Body(mass=m, position=(rest + u0, 0.0, 0.0), velocity=(v0, 0.0, 0.0))
-        scene = Scene(bodies=(body,), springs=(Spring(body=0, stiffness=k, rest_length=rest),))
+        scene = Scene(parts=(Particles.of((body,)),
+                             Springs.of((Spring(body=0, stiffness=k, rest_length=rest),))))
         sim = ENGINE.build(scene, y / w0, SE)
         sim.step(1)
         o = sim.observe()
@@ -282,7 +283,7 @@ def test_engine_state_matches_the_settings():
         assert prm["fixedTimeStep"] == dt and prm["numSubSteps"] == 0
         assert prm["gravityAccelerationZ"] == scene.gravity[2]
         x = sim.observe()["x"][0]
-        np.testing.assert_allclose(x, scene.bodies[0].position, atol=1e-15)  # theta0 sign
+        np.testing.assert_allclose(x, scene.part(Particles).position[0], atol=1e-15)  # theta0 sign
     finally:
         sim.close()
 
@@ -295,7 +296,7 @@ def test_explicit_instability_is_reported_as_diverged():
     assert row["status"] == "diverged" and "energy" in row["reason"], row["reason"]
 
 
-def test_unsupported_scenes_are_refused_and_bad_dt_or_variant_raise():
+def test_unsupported_scenes_are_refused_and_bad_dt_or_formulation_raise():
     scene, dt, _ = _case_scene("stiff_spring", "default")
     assert "rk4" in ENGINE.supports(scene, "rk4")
     with pytest.raises(ValueError, match="rk4"):
@@ -303,12 +304,12 @@ def test_unsupported_scenes_are_refused_and_bad_dt_or_variant_raise():
     for bad in (0.0, -1e-3, float("nan")):
         with pytest.raises(ValueError, match="dt"):
             ENGINE.build(scene, bad, SE)
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         ENGINE.build(scene, dt, SE, "kkt")
-    flat = Scene(bodies=(Body(mass=1.0, position=(0.0, 1.0, 0.0)),), dim=2)
+    flat = Scene(parts=(Particles.of((Body(mass=1.0, position=(0.0, 1.0, 0.0)),)),), dim=2)
     assert "3D" in ENGINE.supports(flat)
-    off_rod = Scene(bodies=(Body(mass=1.0, position=(0.5, 0.0, -0.5)),),
-                    joints=(Joint(body=0, anchor=(0.0, 0.0, 0.0), length=1.0),),
+    off_rod = Scene(parts=(Particles.of((Body(mass=1.0, position=(0.5, 0.0, -0.5)),)),
+                           Joints.of((Joint(body=0, anchor=(0.0, 0.0, 0.0), length=1.0),))),
                     gravity=(0.0, 0.0, -9.81))
     assert "rod" in ENGINE.supports(off_rod)
     row = run_job(Job("stiff_spring", "default", "pybullet", "", "rk4", dt), repeats=0)

@@ -14,6 +14,7 @@ from pivot_scenes import EPS, G, asymmetric, top
 
 from refsim.registry import get_engine
 from refsim.scene import RigidBodies, Scene
+from refsim.scene.pivots import RigidPivots
 
 ENGINE = get_engine("pybullet")
 SE = "symplectic_euler"
@@ -34,16 +35,16 @@ def test_group_claims_pivoted_scenes_and_reports_settings():
     for key in ("motor", "maxJointVelocity", "inertia", "joint", "orientation_update"):
         assert key in settings
     obs = sim.observe()
-    r = scene.rigid
+    r = scene.part(RigidBodies)
     for name, want in (("x", r.position), ("v", r.velocity), ("q", r.orientation),
                        ("w", r.angular_velocity)):
         np.testing.assert_allclose(obs[name], want, rtol=0, atol=10 * EPS * np.abs(want).max())
 
 
 def test_unpivoted_bodies_are_refused():
-    flat = top().rigid
+    flat = top().part(RigidBodies)
     two = RigidBodies(mass=[1.0, 1.0], inertia=[flat.inertia[0]] * 2,
                       position=[flat.position[0], [5.0, 0.0, 0.0]],
                       orientation=[flat.orientation[0]] * 2)
-    scene = Scene(rigid=two, gravity=(0.0, 0.0, -G), extra=top().extra)
+    scene = Scene(parts=(two, top().part(RigidPivots)), gravity=(0.0, 0.0, -G))
     assert "must have a pivot" in ENGINE.supports(scene, SE)

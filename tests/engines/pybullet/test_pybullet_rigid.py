@@ -38,7 +38,7 @@ def _top(w_body=W_BODY0, inertia=I0, orientation=Q_SCENE, gravity=(0.0, 0.0, 0.0
     rigid = RigidBodies(mass=[1.5], inertia=[inertia], position=[position],
                         orientation=[np.roll(orientation.as_quat(), 1)], velocity=[velocity],
                         angular_velocity=[orientation.apply(w_body)])
-    return Scene(rigid=rigid, gravity=gravity)
+    return Scene(parts=(rigid,), gravity=gravity)
 
 
 def _rotation(obs):
@@ -260,9 +260,9 @@ def test_contract_settings_and_frames(form):
     obs, settings = sim.observe(), sim.settings()
     sim.close()
     assert check_observation(obs, scene) == []
-    q0 = scene.rigid.orientation[0]
+    q0 = scene.part(RigidBodies).orientation[0]
     assert min(np.abs(obs["q"][0] - q0).max(), np.abs(obs["q"][0] + q0).max()) < 1e-15
-    assert np.abs(obs["w"][0] - scene.rigid.angular_velocity[0]).max() < 1e-14
+    assert np.abs(obs["w"][0] - scene.part(RigidBodies).angular_velocity[0]).max() < 1e-14
     assert abs(obs["orientation_defect"][0]) < 4 * EPS
     json.dumps(settings)
     assert settings["formulation"] == form and settings["numSubSteps"] == 0
@@ -285,7 +285,7 @@ def test_bodies_never_collide(form):
                         orientation=[[1.0, 0.0, 0.0, 0.0]] * 2,
                         velocity=[[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]],
                         angular_velocity=[[0.0, 1.0, 0.0], [0.0, 0.0, 2.0]])
-    scene = Scene(rigid=rigid)
+    scene = Scene(parts=(rigid,))
     sim = ENGINE.build(scene, h, SE, form)
     sim.step(steps)
     obs = sim.observe()

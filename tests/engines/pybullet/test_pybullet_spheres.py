@@ -19,7 +19,7 @@ from sphere_cases import case_of
 from refsim.registry import get_engine
 from refsim.registry import get_case
 from refsim.models.collisions import resolve_pairs, resolve_walls
-from refsim.scene import Body, ContactModel, Joint, Scene, Wall
+from refsim.scene import Body, ContactModel, Joint, Joints, Particles, Scene, Wall, Walls
 from refsim.testing import accuracy
 
 ENGINE = get_engine("pybullet")
@@ -85,9 +85,10 @@ def test_oblique_is_the_impulse_law_on_the_overlapped_pose(variant, dt):
     x, r = before["x"], p["radius"]
     d = x[1] - x[0]
     assert np.linalg.norm(d) < 2 * r  # found overlapped ...
-    assert np.linalg.norm(d - (scene.velocities[1] - scene.velocities[0]) * dt) > 2 * r  # late
+    bodies = scene.part(Particles)
+    assert np.linalg.norm(d - (bodies.velocity[1] - bodies.velocity[0]) * dt) > 2 * r  # late
     v, w = before["v"].copy(), before["w"].copy()
-    resolve_pairs(v, w, 1 / scene.masses, 1 / scene.inertias, scene.radii, np.array([0]),
+    resolve_pairs(v, w, 1 / bodies.mass, 1 / bodies.inertia, bodies.radius, np.array([0]),
                   np.array([1]), (d / np.linalg.norm(d))[None], p["restitution"], p["friction"])
     np.testing.assert_allclose(after["v"], v, rtol=0, atol=1e-12)
     np.testing.assert_allclose(after["w"], w, rtol=0, atol=1e-11)
@@ -141,7 +142,7 @@ def test_wall_impact_is_the_impulse_law(walls, e, mu):
     ball = Body(mass=m, position=(0.5, 0.5, 0.5), velocity=(-1.3, 0.4, 0.2), radius=r,
                 inertia=0.4 * m * r * r, angular_velocity=(1.0, 0.0, 7.0))
     wall_set = _box_walls(1.0) if walls == "box" else (Wall(point=(0, 0, 0), normal=(1, 0, 0)),)
-    scene = Scene(bodies=(ball,), walls=wall_set, contact=ContactModel(e, mu))
+    scene = Scene(parts=(Particles.of((ball,)), Walls.of(wall_set)), contact=ContactModel(e, mu))
     sim = ENGINE.build(scene, 1e-3, SE)
     built = sim.settings()["collision_shapes"]
     sim.close()
@@ -149,7 +150,8 @@ def test_wall_impact_is_the_impulse_law(walls, e, mu):
     before, after = _first_impact(scene, 1e-3)
     assert before["x"][0, 0] < r  # found overlapped
     v, w = before["v"].copy(), before["w"].copy()
-    resolve_walls(v, w, scene.masses, 1 / scene.inertias, scene.radii, np.array([0]),
+    bodies = scene.part(Particles)
+    resolve_walls(v, w, bodies.mass, 1 / bodies.inertia, bodies.radius, np.array([0]),
                   np.array([[1.0, 0.0, 0.0]]), e, mu)
     np.testing.assert_allclose(after["v"], v, rtol=0, atol=1e-12)
     np.testing.assert_allclose(after["w"], w, rtol=0, atol=1e-11)
@@ -182,13 +184,14 @@ def test_build_keeps_the_scene_order_across_batches():
                         velocity=tuple(rng.normal(size=3)), radius=[0.1, 0.2, 0.1][k % 3],
                         inertia=0.01, angular_velocity=tuple(rng.normal(size=3)))
                    for k in range(7))
-    scene = Scene(bodies=bodies, contact=ContactModel(1.0, 0.0))
+    scene = Scene(parts=(Particles.of(bodies),), contact=ContactModel(1.0, 0.0))
     sim = ENGINE.build(scene, 1e-3, SE)
     o = sim.observe()
     sim.close()
-    np.testing.assert_array_equal(o["x"], scene.positions)
-    np.testing.assert_array_equal(o["v"], scene.velocities)
-    np.testing.assert_array_equal(o["w"], scene.angular_velocities)
+    part = scene.part(Particles)
+    np.testing.assert_array_equal(o["x"], part.position)
+    np.testing.assert_array_equal(o["v"], part.velocity)
+    np.testing.assert_array_equal(o["w"], part.angular_velocity)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -232,11 +235,15 @@ def _sphere(**kw):
 
 
 @pytest.mark.parametrize("scene,words", [
-    (Scene(bodies=(_sphere(radius=0.0, inertia=0.0),), contact=ContactModel()), "radius > 0"),
-    (Scene(bodies=(_sphere(),), walls=(Wall((0, 0, -1), (0, 0, 1)),)), "contact model"),
-    (Scene(bodies=(_sphere(position=(1.0, 0.0, 0.0)),), contact=ContactModel(),
-           joints=(Joint(body=0, anchor=(0, 0, 0), length=1.0),)), "free spheres"),
-    (Scene(bodies=(_sphere(inertia=0.0),), contact=ContactModel(friction=0.5)), "inertia"),
+    (Scene(parts=(Particles.of((_sphere(radius=0.0, inertia=0.0),)),), contact=ContactModel()),
+     "radius > 0"),
+    (Scene(parts=(Particles.of((_sphere(),)), Walls.of((Wall((0, 0, -1), (0, 0, 1)),)))),
+     "contact model"),
+    (Scene(parts=(Particles.of((_sphere(position=(1.0, 0.0, 0.0)),)),
+                  Joints.of((Joint(body=0, anchor=(0, 0, 0), length=1.0),))),
+           contact=ContactModel()), "free spheres"),
+    (Scene(parts=(Particles.of((_sphere(inertia=0.0),)),), contact=ContactModel(friction=0.5)),
+     "inertia"),
 ])
 def test_unsupported_contact_scenes_are_refused(scene, words):
     reason = ENGINE.supports(scene, SE)
@@ -245,6 +252,8 @@ def test_unsupported_contact_scenes_are_refused(scene, words):
         ENGINE.build(scene, 1e-3, SE)
 
 
-def test_capabilities_include_contacts_and_walls():
-    assert {"contacts", "walls"} <= ENGINE.capabilities
-    assert ENGINE.supports(BOX_CASE.scene(BOX_CASE.variant_params("box_100")), SE) is None
+def test_spheres_group_features_include_contacts_and_walls():
+    scene = BOX_CASE.scene(BOX_CASE.variant_params("box_100"))
+    group = ENGINE.group_for(scene)
+    assert group.name == "spheres" and {"contacts", "walls"} <= group.features
+    assert ENGINE.supports(scene, SE) is None

@@ -12,8 +12,7 @@ import pytest
 
 from refsim_adapters.pybullet_engine.softbody import triangles
 from refsim.registry import get_engine
-from refsim.scene import Scene
-from refsim.scene.networks import SpringNetwork
+from refsim.scene import Scene, SpringNetwork
 
 ENGINE = get_engine("pybullet")
 REFSIM = get_engine("refsim")
@@ -33,7 +32,7 @@ def cloth(n=5, spacing=0.1, damping=0.0, shear=True):
     edges = np.concatenate([np.stack([a.ravel(), b.ravel()], 1) for a, b in pairs])
     net = SpringNetwork(positions=pos, masses=0.01, edges=edges, stiffness=40.0,
                         damping=damping, pinned=[0, n * (n - 1)])
-    return Scene(networks=(net,), gravity=(0.0, 0.0, -9.81))
+    return Scene(parts=(net,), gravity=(0.0, 0.0, -9.81))
 
 
 def membrane(n=4, tension_k=20.0, amplitude=0.01):
@@ -49,7 +48,7 @@ def membrane(n=4, tension_k=20.0, amplitude=0.01):
     ring = (ix == 0) | (iy == 0) | (ix == m - 1) | (iy == m - 1)
     net = SpringNetwork(positions=pos, masses=0.02, edges=edges, stiffness=tension_k,
                         rest_length=0.0, pinned=idx[ring])
-    return Scene(networks=(net,), gravity=(0.0, 0.0, 0.0))
+    return Scene(parts=(net,), gravity=(0.0, 0.0, 0.0))
 
 
 def run_both(scene, dt, steps):
@@ -68,7 +67,7 @@ def test_undamped_matches_symplectic_euler_to_roundoff(scene):
     """Without damping pybullet's deformable step is kick (gravity + elastic at x_n) then drift:
     refsim's symplectic Euler on the same forces."""
     pb, ref = run_both(scene, 1e-3, 300)
-    moved = np.abs(ref["x"] - scene.networks[0].positions).max()
+    moved = np.abs(ref["x"] - scene.part(SpringNetwork).positions).max()
     assert moved > 1e-3  # the network really moves (about 3 cm and 1 cm)
     np.testing.assert_allclose(pb["x"], ref["x"], rtol=0, atol=X_ROUNDOFF)
     np.testing.assert_allclose(pb["v"], ref["v"], rtol=0, atol=V_ROUNDOFF)
@@ -89,7 +88,7 @@ def test_implicit_damping_gap_is_first_order():
 
 def test_mesh_holds_exactly_the_network_edges():
     scene = cloth(n=4)
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     tris = triangles(len(net), net.edges)
     sides = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [0, 2]]])
     sides = np.unique(np.sort(sides[sides[:, 0] != sides[:, 1]], axis=1), axis=0)
@@ -105,12 +104,12 @@ def test_edges_in_no_triangle_refused():
 
 def _refusal(**changes):
     base = cloth(n=3)
-    net = base.networks[0]
+    net = base.part(SpringNetwork)
     fields = dict(positions=net.positions, masses=net.masses, edges=net.edges,
                   stiffness=net.stiffness, damping=net.damping, pinned=net.pinned)
     drag = changes.pop("linear_drag", 0.0)
     fields.update(changes)
-    scene = Scene(networks=(SpringNetwork(**fields),), gravity=base.gravity, linear_drag=drag)
+    scene = Scene(parts=(SpringNetwork(**fields),), gravity=base.gravity, linear_drag=drag)
     return ENGINE.supports(scene, SE)
 
 

@@ -1,4 +1,0 @@
-"""pybullet refuses finite-difference grids (heat, wave and Poisson equations) with the reason."""
-from refsim_adapters.common.grid_pde import grid_refusal
-
-MODEL_GROUP = grid_refusal("pybullet", "it simulates rigid bodies, multibodies and soft-body meshes")
