@@ -27,7 +27,7 @@ import numpy as np
 
 from refsim.case import EPS, Param, roundoff_tolerance
 from refsim.engine import ContactInfo
-from refsim.scene import ContactModel, RigidBodies, Scene, Wall
+from refsim.scene import ContactModel, RigidBodies, Scene, Wall, Walls
 from refsim.scene.rigid_shapes import RigidShapes
 
 from refsim_cases.rigid import RigidCase
@@ -102,7 +102,7 @@ class RollingDisc(RigidCase):
                            position=[p["radius"] * normal(p)], orientation=[(1.0, 0, 0, 0)])
         shape = RigidShapes(body=[0], shape=("cylinder",), radius=[p["radius"]],
                             half_length=[p["half_length"]])
-        return Scene(rigid=body, extra=(shape,), walls=(Wall((0.0, 0.0, 0.0), normal(p)),),
+        return Scene(parts=(body, shape, Walls.of((Wall((0.0, 0.0, 0.0), normal(p)),))),
                      contact=ContactModel(restitution=0.0, friction=p["friction"]),
                      gravity=(0.0, 0.0, -p["g"]), planar=True)
 

@@ -1,7 +1,7 @@
 """The sprinkler (slide 002), a ballistic emitter: particles born at a steady rate, each on its
 closed-form parabola.
 
-Scene: `Scene(extra=(Emitter(...),), gravity=(0, 0, -g))`, rate `rate` particles/s, lifetime
+Scene: `Scene(parts=(Emitter(...),), gravity=(0, 0, -g))`, rate `rate` particles/s, lifetime
 `lifetime` s, spawn velocity (0, 0, speed) + spread x uniform[-1, 1)^3 (seeded, the part's
 `spawn_states`). Rule (refsim/models/emitter.py): particle i is born at the first step boundary
 t_n >= i / rate, removed at the first one where its age >= lifetime.
@@ -61,7 +61,7 @@ class SprinklerCase(Case):
         return np.array([0.0, 0.0, -p["g"]])
 
     def scene(self, p):
-        return Scene(extra=(self.emitter(p),), gravity=tuple(self.gravity(p)))
+        return Scene(parts=(self.emitter(p),), gravity=tuple(self.gravity(p)))
 
     def t_end(self, p):
         return p["duration"]

@@ -37,8 +37,8 @@ class AffineFieldCase(Case):
 
     def scene(self, p):
         start = self.start(p)
-        return Scene(bodies=Particles(mass=np.ones(len(start)), position=start),
-                     extra=(self.field(p),))
+        return Scene(parts=(Particles(mass=np.ones(len(start)), position=start),
+                            self.field(p)))
 
     def relative_start(self, p) -> np.ndarray:
         return self.start(p) - np.array(self.field(p).centre)

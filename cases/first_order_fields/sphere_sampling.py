@@ -70,8 +70,8 @@ class SphereSamplingCase(Case):
 
     def scene(self, p):
         part = SurfaceSampling(radius=1.0, sigma=p["sigma"], alpha=p["alpha"])
-        return Scene(bodies=Particles(mass=np.ones(self.count(p)), position=self.start(p)),
-                     extra=(part,))
+        return Scene(parts=(Particles(mass=np.ones(self.count(p)), position=self.start(p)),
+                            part))
 
     def t_end(self, p):
         return p["duration"]

@@ -3,7 +3,7 @@
 Scene: N particles of mass `mass` (unused by the rules, which are accelerations: a mass
 other than 1 shows an engine dividing them by it) in a cube of side `box` (uniform, seeded),
 velocities mean (speed, 0, 0) plus `spread` x standard normal components;
-`Scene(bodies=Particles(...), extra=(Flocking(...),))`. Compared observable `x` (m): the
+`Scene(parts=(Particles(...), Flocking(...)))`. Compared observable `x` (m): the
 positions against a converged reference, scipy's DOP853 (`solve_ivp`, rtol = atol = 1e-12) on the same accelerations
 (refsim/models/flocking.py); error = the l2 norm over all birds at each sample.
 
@@ -90,9 +90,9 @@ class Boids(Case):
 
     def scene(self, p):
         x, v = self.initial_state(p)
-        return Scene(bodies=Particles(mass=np.full(len(x), p["mass"]), position=x,
-                                     velocity=v),
-                     extra=(self.flocking(p),))
+        return Scene(parts=(Particles(mass=np.full(len(x), p["mass"]), position=x,
+                                      velocity=v),
+                            self.flocking(p)))
 
     def t_end(self, p):
         return p["duration"]

@@ -119,8 +119,8 @@ class FigureEight(Case):
 
     def scene(self, p):
         x, v = initial_state()
-        return Scene(bodies=Particles(mass=MASSES, position=x, velocity=v),
-                     extra=(GravityPairs(G=G, softening=0.0),))
+        return Scene(parts=(Particles(mass=MASSES, position=x, velocity=v),
+                            GravityPairs(G=G, softening=0.0)))
 
     def bodies(self, p):
         return 3

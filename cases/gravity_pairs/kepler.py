@@ -79,7 +79,7 @@ class Kepler(Case):
     def scene(self, p):
         x, v = two_body_state(np.zeros(1), SEMI_MAJOR, p["e"], G, masses(p))
         bodies = Particles(mass=masses(p), position=x[0], velocity=v[0])
-        return Scene(bodies=bodies, extra=(GravityPairs(G=G, softening=0.0),))
+        return Scene(parts=(bodies, GravityPairs(G=G, softening=0.0)))
 
     def bodies(self, p):
         return 2

@@ -20,8 +20,7 @@ from refsim.integrators.first_order import get_first_order
 from refsim.integrators.sparse_linear import first_order_implicit
 from refsim.integrators.spec import spec_name
 from refsim.models.grid_laplacian import mode_eigenvalue
-from refsim.scene import Scene
-from refsim.scene.grids import Grid
+from refsim.scene import Grid, Scene
 
 BOUNDARIES = ("dirichlet", "neumann", "periodic")
 
@@ -100,7 +99,7 @@ class ModeGrid:
     def scene(self, model: str, fields: dict, coefficients: dict) -> Scene:
         grid = Grid(shape=self.shape, spacing=self.h, model=model, boundary=self.boundary,
                     fields=fields, coefficients=coefficients)
-        return Scene(grids=(grid,), gravity=(0.0, 0.0, 0.0))
+        return Scene(parts=(grid,), gravity=(0.0, 0.0, 0.0))
 
 
 class ModeFieldCase(Case):

@@ -28,6 +28,7 @@ import math
 import numpy as np
 
 from refsim.case import EPS, Param
+from refsim.scene import Grid
 
 from ._modes import (
     BOUNDARIES,
@@ -105,7 +106,7 @@ class HeatMode(ModeFieldCase):
                                              np.asarray(t, float))
 
     def energy_scale(self, p):
-        return float(self.energy(p, {"grid.u": self.scene(p).grids[0].fields["u"][None],
+        return float(self.energy(p, {"grid.u": self.scene(p).part(Grid).fields["u"][None],
                                      "t": np.zeros(1)})[0])
 
     def factor(self, p, integrator, dt) -> complex:

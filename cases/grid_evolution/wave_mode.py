@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from refsim.case import EPS, Param
+from refsim.scene import Grid
 from refsim.stress.search import theory as oscillator_limit
 
 from ._modes import BOUNDARIES, ModeFieldCase, ModeGrid
@@ -130,7 +131,7 @@ class WaveMode(ModeFieldCase):
         return 2.0 * math.pi / self.omega_h(p)
 
     def energy_scale(self, p):
-        u0 = self.scene(p).grids[0].fields["u"]
+        u0 = self.scene(p).part(Grid).fields["u"]
         return float(self.energy(p, {"grid.u": u0[None], "grid.v": np.zeros_like(u0)[None],
                                      "t": np.zeros(1)})[0])
 

@@ -40,8 +40,7 @@ import numpy as np
 from refsim.case import EPS, Case, Param
 from refsim.models.grid_laplacian import GridLaplacian
 from refsim.models.multigrid import multigrid_reason
-from refsim.scene import Scene
-from refsim.scene.grids import Grid
+from refsim.scene import Grid, Scene
 
 
 def discrete_factor(h: float) -> float:
@@ -130,7 +129,7 @@ class PoissonManufactured(Case):
         grid = Grid(shape=(n,) * dim, spacing=h, model="poisson", boundary="dirichlet",
                     fields={"u": np.zeros_like(u), "f": self.source(p)},
                     coefficients={"rtol": p["rtol"]})
-        return Scene(grids=(grid,), gravity=(0.0, 0.0, 0.0))
+        return Scene(parts=(grid,), gravity=(0.0, 0.0, 0.0))
 
     def bodies(self, p):
         return int(p["points"]) ** int(p["dim"])

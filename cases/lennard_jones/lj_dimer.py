@@ -176,7 +176,7 @@ class LJDimer(Case):
         r_start = R0_OVER_SIGMA * p["sigma"] + p["amplitude"]
         x = np.array([[-0.5 * r_start, 0.0, 0.0], [0.5 * r_start, 0.0, 0.0]])
         atoms = Particles(mass=np.full(2, p["mass"]), position=x)
-        return Scene(bodies=atoms, extra=(LennardJones(p["epsilon"], p["sigma"]),))
+        return Scene(parts=(atoms, LennardJones(p["epsilon"], p["sigma"])))
 
     def t_end(self, p):
         return p["periods"] * 2.0 * math.pi / self.omega0(p)

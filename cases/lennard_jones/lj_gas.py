@@ -102,8 +102,8 @@ class LJGas(Case):
         x, v, side = lattice_start(n, p["density"], p["temperature"], p["seed"], p["mass"])
         part = LennardJones(epsilon=1.0, sigma=1.0, cutoff=p["cutoff"], shift=True,
                             box=(side, side))
-        return Scene(bodies=Particles(mass=np.full(n, p["mass"]), position=x, velocity=v),
-                     extra=(part,), dim=2)
+        return Scene(parts=(Particles(mass=np.full(n, p["mass"]), position=x, velocity=v), part),
+                     dim=2)
 
     def t_end(self, p):
         return p["duration"]

@@ -17,7 +17,7 @@ import numpy as np
 
 from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance
 from refsim.expected import discrete_solution
-from refsim.scene import Body, Scene
+from refsim.scene import Body, Particles, Scene
 
 from .stiff_spring import adaptive_bound, sample_steps
 
@@ -41,7 +41,8 @@ class FreeFall(Case):
     def scene(self, p):
         body = Body(mass=p["mass"], position=(0.0, 0.0, p["height"]),
                     velocity=(p["vx0"], 0.0, p["vz0"]), name="ball")
-        return Scene(bodies=(body,), gravity=(0.0, 0.0, -p["g"]), linear_drag=p["drag"])
+        return Scene(parts=(Particles.of((body,)),), gravity=(0.0, 0.0, -p["g"]),
+                     linear_drag=p["drag"])
 
     def t_end(self, p):
         return p["duration"]

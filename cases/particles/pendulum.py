@@ -23,7 +23,7 @@ from scipy.special import ellipe, ellipj, ellipk
 from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance
 from refsim.expected import discrete_solution, oscillator_rates
 from refsim.integrators import get_integrator
-from refsim.scene import Body, Joint, Scene
+from refsim.scene import Body, Joint, Joints, Particles, Scene
 
 from .stiff_spring import adaptive_bound, sample_steps
 
@@ -74,7 +74,8 @@ class Pendulum(Case):
         L, th = p["length"], p["theta0"]
         bob = Body(mass=p["mass"], position=(L * np.sin(th), 0.0, -L * np.cos(th)), name="bob")
         rod = Joint(body=0, anchor=(0.0, 0.0, 0.0), length=L, axis=(0.0, 1.0, 0.0))
-        return Scene(bodies=(bob,), joints=(rod,), gravity=(0.0, 0.0, -p["g"]), planar=True)
+        return Scene(parts=(Particles.of((bob,)), Joints.of((rod,))),
+                     gravity=(0.0, 0.0, -p["g"]), planar=True)
 
     def t_end(self, p):
         return p["duration"]

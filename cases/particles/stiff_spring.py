@@ -23,7 +23,7 @@ from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance
 from refsim.expected import discrete_solution
 from refsim.integrators import get_integrator
 from refsim.integrators.tableaux import DOPRI5
-from refsim.scene import Body, Scene, Spring
+from refsim.scene import Body, Particles, Scene, Spring, Springs
 
 Y_SWEEP = (0.2, 0.1, 0.05, 0.025)
 Y_REFERENCE = 0.05
@@ -65,7 +65,7 @@ class StiffSpring(Case):
                     name="mass")
         spring = Spring(body=0, stiffness=p["stiffness"], rest_length=p["rest_length"],
                         damping=c)
-        return Scene(bodies=(body,), springs=(spring,))
+        return Scene(parts=(Particles.of((body,)), Springs.of((spring,))))
 
     def t_end(self, p):
         return p["periods"] * 2 * np.pi / self.omega(p)

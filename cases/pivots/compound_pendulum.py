@@ -74,7 +74,7 @@ class CompoundPendulum(RigidCase):
         rod = RigidBodies(mass=[p["mass"]], inertia=[rod_inertia(p)], position=[com],
                           orientation=[q0])
         pivot = RigidPivots(body=[0], body_point=[(0.0, 0.0, half)], anchor=[(0.0, 0.0, 0.0)])
-        return Scene(rigid=rod, extra=(pivot,), gravity=(0.0, 0.0, -p["g"]), planar=True)
+        return Scene(parts=(rod, pivot), gravity=(0.0, 0.0, -p["g"]), planar=True)
 
     def t_end(self, p):
         return p["duration"]

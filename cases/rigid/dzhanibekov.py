@@ -141,7 +141,7 @@ class Dzhanibekov(RigidCase):
         body = RigidBodies(mass=[p["mass"]], inertia=[inertia], position=[(0.0, 0.0, 0.0)],
                            orientation=[q0], velocity=[DRIFT_VELOCITY],
                            angular_velocity=[quat_to_matrix(q0) @ initial_body_omega(p)])
-        return Scene(rigid=body)
+        return Scene(parts=(body,))
 
     def t_end(self, p):
         return p["periods"] * flip_period(p)

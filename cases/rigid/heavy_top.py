@@ -202,7 +202,7 @@ class HeavyTop(RigidCase):
                            position=[quat_to_matrix(q0) @ arm], orientation=[q0],
                            angular_velocity=[initial_world_omega(p)])
         pivot = RigidPivots(body=[0], body_point=[-arm], anchor=[(0.0, 0.0, 0.0)])
-        return Scene(rigid=body, extra=(pivot,), gravity=(0.0, 0.0, -p["g"]))
+        return Scene(parts=(body, pivot), gravity=(0.0, 0.0, -p["g"]))
 
     def t_end(self, p):
         return p["duration"]

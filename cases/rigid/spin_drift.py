@@ -113,7 +113,7 @@ class SpinDrift(RigidCase):
                            position=[(0.0, 0.0, 1.0)],
                            orientation=[self.initial_orientation(p)],
                            velocity=[DRIFT_VELOCITY], angular_velocity=[self.spin_vector(p)])
-        return Scene(rigid=body)
+        return Scene(parts=(body,))
 
     def t_end(self, p):
         return p["duration"]

@@ -85,7 +85,7 @@ class SPHTankCase(Case):
                            viscosity_alpha=p["alpha"], smoothing=p["smoothing"],
                            no_slip=p["walls"] == "no_slip", delta=p["delta"],
                            tension=p["pressure"] == "tension")
-        return Scene(bodies=(), fluid=fluid, gravity=(0.0, -p["g"], 0.0), dim=2)
+        return Scene(parts=(fluid,), gravity=(0.0, -p["g"], 0.0), dim=2)
 
     # -- time --------------------------------------------------------------------------------
     def t_end(self, p):

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.case import Case, Param
-from refsim.scene import Body, ContactModel, Scene
+from refsim.scene import Body, ContactModel, Particles, Scene, Walls
 
 SETTLE = 0.05  # s after first contact before the outcome is compared (soft contacts)
 
@@ -37,7 +37,7 @@ def sphere_scene(p, x, v, m, w, walls=()) -> Scene:
     bodies = tuple(Body(mass=m[i], position=x[i], velocity=v[i], radius=p["radius"],
                         inertia=inertia[i], angular_velocity=w[i], name=f"sphere{i}")
                    for i in range(len(m)))
-    return Scene(bodies=bodies, contact=contact, walls=walls)
+    return Scene(parts=(Particles.of(bodies), Walls.of(walls)), contact=contact)
 
 
 def kinetic_energy(m, radius, obs) -> np.ndarray:

@@ -148,7 +148,7 @@ class ClothHang(Case):
         return p
 
     def scene(self, p):
-        return Scene(networks=(cloth_network(p),), gravity=GRAVITY,
+        return Scene(parts=(cloth_network(p),), gravity=GRAVITY,
                      linear_drag=self.air_drag(p))
 
     def t_end(self, p):

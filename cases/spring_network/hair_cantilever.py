@@ -43,8 +43,7 @@ import numpy as np
 from scipy.optimize import brentq, root
 
 from refsim.case import EPS, Case, Param
-from refsim.scene import Scene
-from refsim.scene.networks import SpringNetwork
+from refsim.scene import Scene, SpringNetwork
 
 G = 9.81
 
@@ -147,7 +146,7 @@ class HairCantilever(Case):
                              pinned=[0, 1])
 
     def scene(self, p):
-        return Scene(networks=(self.network(p),), gravity=(0.0, 0.0, -G),
+        return Scene(parts=(self.network(p),), gravity=(0.0, 0.0, -G),
                      linear_drag=self.drag(p))
 
     # -- reference --------------------------------------------------------------------------
@@ -221,13 +220,13 @@ def _linearised_cached(items):
     p = dict(items)
     case = CASE
     scene = case.scene(p)
-    system = NetworkSystem(scene.networks[0], scene.gravity, scene.linear_drag)
+    system = NetworkSystem(scene.part(SpringNetwork), scene.gravity, scene.linear_drag)
     x_star = case.equilibrium(p).reshape(-1)
     ax, av = system.jacobians(0.0, x_star, np.zeros_like(x_star))
     size = len(x_star)
     a = np.block([[np.zeros((size, size)), np.eye(size)], [ax, av]])
     lam, vec = np.linalg.eig(a)
-    z0 = np.r_[scene.networks[0].positions[2:].reshape(-1) - x_star, np.zeros(size)]
+    z0 = np.r_[scene.part(SpringNetwork).positions[2:].reshape(-1) - x_star, np.zeros(size)]
     weight = np.linalg.norm(vec[:size], axis=0) * np.abs(np.linalg.solve(vec, z0))
 
     def bound(t):

@@ -39,8 +39,7 @@ import numpy as np
 from refsim.case import EPS, Case, Param
 from refsim.expected import discrete_solution, has_discrete_solution, maps
 from refsim.models.spring_network import NetworkSystem
-from refsim.scene import Scene
-from refsim.scene.networks import SpringNetwork
+from refsim.scene import Scene, SpringNetwork
 
 from ._chain import chain_equilibrium
 from ._linear_steps import first_order_matrix
@@ -123,7 +122,7 @@ class HangingChain(Case):
         return _linearised(*self._key(p))
 
     def scene(self, p):
-        return Scene(networks=(self.network(p, self.start_positions(p)),),
+        return Scene(parts=(self.network(p, self.start_positions(p)),),
                      gravity=(0.0, 0.0, -G), linear_drag=self.drag(p))
 
     # -- the run ------------------------------------------------------------------------------

@@ -35,8 +35,7 @@ import numpy as np
 
 from refsim.case import EPS, Case, Param, order_tolerance
 from refsim.models.spring_network import network_potential
-from refsim.scene import Scene
-from refsim.scene.networks import SpringNetwork
+from refsim.scene import Scene, SpringNetwork
 from refsim.stress.search import Criterion, finite_time
 from refsim.stress.search import theory as oscillator_limit
 
@@ -110,7 +109,7 @@ class StringModes(Case):
         net = SpringNetwork(positions=x, masses=p["mass"], edges=self._edges(index, pinned),
                             stiffness=p["stiffness"], rest_length=0.0,
                             pinned=np.flatnonzero(pinned))
-        return Scene(networks=(net,), gravity=(0.0, 0.0, 0.0))
+        return Scene(parts=(net,), gravity=(0.0, 0.0, 0.0))
 
     @staticmethod
     def _edges(index, pinned) -> np.ndarray:
@@ -201,7 +200,7 @@ class StringModes(Case):
 
     def flat_energy(self, p) -> float:
         """The pretension's energy at rest, flat (J): the floor the mode oscillates above."""
-        return network_potential(self.scene(p).networks[0], self.rest_positions(p),
+        return network_potential(self.scene(p).part(SpringNetwork), self.rest_positions(p),
                                  (0.0, 0.0, 0.0))
 
     def energy_period(self, p, settings=None):

@@ -14,6 +14,7 @@ from refsim_cases.spring_network.hair_cantilever import (
 from refsim.integrators.implicit import BaraffWitkin
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
+from refsim.scene import SpringNetwork
 
 EPS = np.finfo(float).eps
 
@@ -94,8 +95,8 @@ def test_baraff_witkin_at_large_dt_is_newton_on_the_statics(variant):
     8 steps must leave only the round-off bound 8 eps k_s L ||K^-1||."""
     p = CASE.variant_params(variant)
     scene = CASE.scene(p)
-    system = NetworkSystem(scene.networks[0], scene.gravity, scene.linear_drag)
-    x = scene.networks[0].positions[2:].reshape(-1)
+    system = NetworkSystem(scene.part(SpringNetwork), scene.gravity, scene.linear_drag)
+    x = scene.part(SpringNetwork).positions[2:].reshape(-1)
     state, stepper, h = (x, np.zeros_like(x)), BaraffWitkin(), 1e4
     for k in range(8):
         state = stepper.step(system, k * h, state, h)

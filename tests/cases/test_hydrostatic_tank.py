@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from refsim.registry import get_case
+from refsim.scene import FluidBlock
 from refsim.testing import accuracy
 
 CASE = get_case("hydrostatic_tank")
@@ -25,7 +26,7 @@ def test_hydrostatic_tank_settles_to_rho_g_h():
 def test_tank_is_square_and_closed():
     """Width a, depth H = a: the block fills the tank's width, so nothing is released."""
     p = CASE.variant_params("hydrostatic")
-    fluid = CASE.scene(p).fluid
+    fluid = CASE.scene(p).part(FluidBlock)
     assert fluid.upper[0] == pytest.approx(p["a"]) and fluid.upper[1] == pytest.approx(p["a"])
     assert fluid.tank_width == pytest.approx(p["a"])
 

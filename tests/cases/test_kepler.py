@@ -14,6 +14,7 @@ from refsim.run.metrics import convergence_order
 from refsim.models.nbody_gravity import angular_momentum, runge_lenz, total_energy
 from refsim_adapters.planted_defects.checks import bound_misfits, job_error, job_uncaught, sweep
 from refsim.registry import get_engine
+from refsim.scene import Particles
 
 EPS = np.finfo(float).eps
 
@@ -66,8 +67,9 @@ def test_default_variant_references_start_state():
     p = CASE.variant_params("e0.5")
     scene = CASE.scene(p)
     ref = CASE.reference(p, np.array([0.0, CASE.t_end(p)]))
-    np.testing.assert_array_equal(ref["x"][0], scene.particles.position)
-    assert np.all(scene.particles.position[:, 2] == 0) and np.all(scene.particles.velocity[:, 2] == 0)
+    bodies = scene.part(Particles)
+    np.testing.assert_array_equal(ref["x"][0], bodies.position)
+    assert np.all(bodies.position[:, 2] == 0) and np.all(bodies.velocity[:, 2] == 0)
 
 
 def test_symplectic_methods_conserve_angular_momentum_and_bound_energy():

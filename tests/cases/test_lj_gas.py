@@ -7,6 +7,7 @@ import pytest
 from refsim_cases.lennard_jones.lj_gas import CASE, lattice_start, thermal_omega
 from refsim_adapters.planted_defects.checks import bound_misfits, job_uncaught, sweep
 from refsim import registry
+from refsim.scene.lennard_jones import LennardJones
 from refsim.testing import accuracy, measured_order
 
 EPS = np.finfo(float).eps
@@ -38,7 +39,7 @@ def test_thermal_collision_turns_where_u_equals_t():
 
 def test_scene_box_obeys_minimum_image_rule():
     p = CASE.variant_params("default")
-    part = CASE.scene(p).extra[0]
+    part = CASE.scene(p).part(LennardJones)
     assert part.box[0] >= 2 * part.cutoff and part.shift and CASE.scene(p).dim == 2
 
 

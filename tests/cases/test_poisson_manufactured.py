@@ -10,8 +10,7 @@ from refsim import registry
 from refsim.run.job import Job, run_job
 from refsim.models.grid_laplacian import GridLaplacian
 from refsim.models.poisson_solvers import METHODS, PoissonProblem, solve_problem
-from refsim.scene import Scene
-from refsim.scene.grids import Grid
+from refsim.scene import Grid, Scene
 
 EPS = np.finfo(float).eps
 VARIANTS = tuple(v for v in CASE.default_variants
@@ -50,7 +49,7 @@ def test_factor_matches_a_direct_solve(variant):
     residual obtained; in the 2-norm ||e|| <= ||r|| / lambda_min (plus u_h's rounding)."""
     p = CASE.variant_params(variant)
     dim, _, h = CASE.dims(p)
-    u, info = solve_problem(PoissonProblem.of(CASE.scene(p).grids[0]), "direct", 1e-8)
+    u, info = solve_problem(PoissonProblem.of(CASE.scene(p).part(Grid)), "direct", 1e-8)
     assert info["residual"] <= p["rtol"]
     bound, _ = CASE.tolerance({**p, "rtol": info["residual"]}, "steady", 0, 1.0)
     assert CASE.residual_error(p, u) <= bound
@@ -120,7 +119,7 @@ def test_engine_path_without_the_job(method):
     tol, _ = CASE.tolerance(p, "steady", 0, 1.0, method, sim.settings())
     assert error[0] == 0.0 and last["residual"] <= p["rtol"]
     assert CASE.residual_error(p, last["grid.u"]) <= tol
-    assert np.array_equal(last["grid.f"], scene.grids[0].fields["f"])
+    assert np.array_equal(last["grid.f"], scene.part(Grid).fields["f"])
     settings = sim.settings()
     assert settings["integrator"] == {"name": "steady", "order": 0, "family": "static solve",
                                       "explicit": False, "symplectic": False}
@@ -130,16 +129,16 @@ def test_engine_path_without_the_job(method):
 def test_group_refuses_what_it_cannot_solve():
     engine = registry.get_engine("refsim")
     fields = {"u": np.zeros((9, 9)), "f": np.ones((9, 9))}
-    neumann = Scene(grids=(Grid(shape=(9, 9), spacing=0.125, model="poisson",
+    neumann = Scene(parts=(Grid(shape=(9, 9), spacing=0.125, model="poisson",
                                 boundary="neumann", fields=fields,
                                 coefficients={"rtol": 1e-8}),), gravity=(0, 0, 0))
     assert "every side Dirichlet" in engine.supports(neumann, "steady")
-    no_rtol = Scene(grids=(Grid(shape=(9, 9), spacing=0.125, model="poisson", fields=fields),),
+    no_rtol = Scene(parts=(Grid(shape=(9, 9), spacing=0.125, model="poisson", fields=fields),),
                     gravity=(0, 0, 0))
     assert "rtol" in engine.supports(no_rtol, "steady")
     p = CASE.variant_params("2d")
     assert "no integrator 'rk4'" in engine.supports(CASE.scene(p), "rk4")
-    odd = Scene(grids=(Grid(shape=(10, 10), spacing=1 / 9, model="poisson",
+    odd = Scene(parts=(Grid(shape=(10, 10), spacing=1 / 9, model="poisson",
                             fields={"u": np.zeros((10, 10)), "f": np.ones((10, 10))},
                             coefficients={"rtol": 1e-8}),), gravity=(0, 0, 0))
     with pytest.raises(ValueError, match="2\\^k \\+ 1 points per axis"):
@@ -172,5 +171,5 @@ def test_a_wrong_solve_exceeds_the_bound():
     p = CASE.variant_params(POLY)
     tol, _ = CASE.tolerance(p, "steady", 0, 1.0)
     assert CASE.residual_error(p, CASE.exact_discrete(p) / 1.01) > 100 * tol
-    u, info = solve_problem(PoissonProblem.of(CASE.scene(p).grids[0]), "cg", 1e-6)
+    u, info = solve_problem(PoissonProblem.of(CASE.scene(p).part(Grid)), "cg", 1e-6)
     assert CASE.residual_error(p, u) > 10 * tol

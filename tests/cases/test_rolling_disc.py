@@ -11,6 +11,7 @@ from refsim_cases.contact_rolling.rolling_disc import (
     normal,
     rolls,
 )
+from refsim.scene import RigidBodies, Walls
 
 
 def test_disc_and_hoop_accelerations():
@@ -60,7 +61,8 @@ def test_reference_conserves_energy_while_rolling():
 def test_scene_touches_the_incline():
     p = CASE.variant_params("disc")
     scene = CASE.scene(p)
-    gap = (scene.rigid.position[0] - scene.wall_set.point[0]) @ scene.wall_set.normal[0]
+    walls = scene.part(Walls)
+    gap = (scene.part(RigidBodies).position[0] - walls.point[0]) @ walls.normal[0]
     assert gap == pytest.approx(p["radius"], rel=1e-15)
     assert {"shapes", "contacts", "walls", "rigid"} <= scene.features()
 

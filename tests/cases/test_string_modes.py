@@ -13,6 +13,7 @@ from refsim_cases.spring_network.string_modes import CASE
 from refsim.models.spring_network import NetworkSystem
 from refsim.registry import get_engine
 from refsim.run.job import Job, run_job
+from refsim.scene import SpringNetwork
 
 ENGINE = get_engine("refsim")
 EPS = np.finfo(float).eps
@@ -29,8 +30,8 @@ def _run(p, integrator, dt, steps):
 def test_mode_frequency_is_an_eigenvalue_of_the_in_house_model(variant):
     p = CASE.variant_params(variant)
     scene = CASE.scene(p)
-    system = NetworkSystem(scene.networks[0], scene.gravity)
-    x = scene.networks[0].positions[system.free].reshape(-1)
+    system = NetworkSystem(scene.part(SpringNetwork), scene.gravity)
+    x = scene.part(SpringNetwork).positions[system.free].reshape(-1)
     a, _ = system.jacobians(0.0, x, np.zeros_like(x))
     phi = np.zeros((len(system.free), 3))
     phi[:, 2] = CASE.grid(p)[2]
