@@ -59,7 +59,7 @@ class HingeFrames:
 
     @classmethod
     def from_scene(cls, scene) -> "HingeFrames":
-        joints = scene.part(Joints)
+        joints = scene.part(Joints) or Joints.of(())  # no rods: empty index arrays
         frames = [hinge_frame(axis, scene.gravity) for axis in joints.axis]
         return cls(bodies=joints.body, anchor=joints.anchor, length=joints.length,
                    d=np.array([f[0] for f in frames]).reshape(-1, 3),

@@ -15,6 +15,7 @@ from refsim_adapters.common.sph_lattice import (WALL_LAYERS, fluid_particles, hy
 from refsim.models.sph import tait_pressure
 from refsim.registry import get_engine
 from refsim.scene import Body, ContactModel, FluidBlock, Joint, Scene, Spring, Wall
+from refsim.scene import Joints, Particles, Springs, Walls
 
 G = (0.0, 0.0, -9.81)
 ROD = Joint(body=0, anchor=(0.0, 0.0, 0.0), length=1.0)  # hinge axis y
@@ -28,19 +29,20 @@ def bob(position=(1.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0)):
     return Body(mass=1.0, position=position, velocity=velocity)
 
 
-def spheres(second=None, friction=0.0, **scene):
+def spheres(second=None, friction=0.0, walls=(), **scene):
     bodies = (sphere(1.0), second or sphere(2.0))
-    return Scene(bodies=bodies, contact=ContactModel(friction=friction), **scene)
+    return Scene(parts=(Particles.of(bodies), Walls.of(walls)),
+                 contact=ContactModel(friction=friction), **scene)
 
 
 # -- checks: None when the scene passes, else "<who>: <what><why>" --------------------------------
 def test_walls_without_contact_refused_with_who_and_why():
     floor = Wall(point=(0, 0, 0), normal=(0, 0, 1))
-    bare = Scene(bodies=(sphere(1.0),), walls=(floor,))
+    bare = Scene(parts=(Particles.of((sphere(1.0),)), Walls.of((floor,))))
     assert checks.walls_without_contact(bare, "x adapter", " for e") == \
         "x adapter: walls need a contact model (scene.contact) for e"
     assert checks.walls_without_contact(spheres(walls=(floor,)), "x adapter") is None
-    assert checks.walls_without_contact(Scene(bodies=(sphere(1.0),)), "x adapter") is None
+    assert checks.walls_without_contact(Scene(parts=(Particles.of((sphere(1.0),)),)), "x adapter") is None
 
 
 def test_non_sphere_bodies_names_the_first_point_mass():
@@ -63,8 +65,8 @@ def test_spheres_without_inertia_always_or_only_under_friction():
 
 
 def test_rods_per_body_refuses_two_rods_and_with_every_body_a_free_body():
-    two_rods = Scene(bodies=(bob(),), joints=(ROD, ROD), gravity=G)
-    free_too = Scene(bodies=(bob(), bob((3.0, 0.0, 0.0))), joints=(ROD,), gravity=G)
+    two_rods = Scene(parts=(Particles.of((bob(),)), Joints.of((ROD, ROD))), gravity=G)
+    free_too = Scene(parts=(Particles.of((bob(), bob((3.0, 0.0, 0.0)))), Joints.of((ROD,))), gravity=G)
     assert checks.rods_per_body(two_rods, "x", why=" (loop)") == "x: one rod per body (loop)"
     assert checks.rods_per_body(two_rods, "x", every_body=True) == "x: exactly one rod per body"
     assert checks.rods_per_body(free_too, "x") is None
@@ -72,10 +74,9 @@ def test_rods_per_body_refuses_two_rods_and_with_every_body_a_free_body():
 
 
 def test_spring_checks_refuse_body_to_body_and_rod_body_springs():
-    pair = Scene(bodies=(bob(), bob((3.0, 0.0, 0.0))),
-                 springs=(Spring(body=0, other=1, stiffness=1.0, rest_length=1.0),))
-    anchored = Scene(bodies=(bob(),), springs=(Spring(body=0, stiffness=1.0, rest_length=1.0),))
-    on_rod = Scene(bodies=(bob(),), joints=(ROD,), gravity=G, springs=anchored.springs)
+    pair = Scene(parts=(Particles.of((bob(), bob((3.0, 0.0, 0.0)))), Springs.of((Spring(body=0, other=1, stiffness=1.0, rest_length=1.0),))))
+    anchored = Scene(parts=(Particles.of((bob(),)), Springs.of((Spring(body=0, stiffness=1.0, rest_length=1.0),))))
+    on_rod = Scene(parts=(Particles.of((bob(),)), anchored.part(Springs), Joints.of((ROD,))), gravity=G)
     assert checks.body_to_body_springs(pair, "x", " (anchors)") == \
         "x: springs between two bodies are not modelled (anchors)"
     assert checks.body_to_body_springs(anchored, "x") is None
@@ -85,47 +86,46 @@ def test_spring_checks_refuse_body_to_body_and_rod_body_springs():
 
 
 def test_linear_drag_names_what_it_acts_on():
-    dragged = Scene(bodies=(sphere(1.0),), linear_drag=0.1)
+    dragged = Scene(parts=(Particles.of((sphere(1.0),)),), linear_drag=0.1)
     assert checks.linear_drag(dragged, "x", "spheres", " (spin)") == \
         "x: linear drag on spheres is not modelled (spin)"
-    assert checks.linear_drag(Scene(bodies=(sphere(1.0),)), "x", "spheres") is None
+    assert checks.linear_drag(Scene(parts=(Particles.of((sphere(1.0),)),)), "x", "spheres") is None
 
 
 # -- hinges --------------------------------------------------------------------------------------
 def test_rod_start_accepts_a_rotation_about_the_axis_and_refuses_the_rest():
-    swinging = Scene(bodies=(bob(velocity=(0.0, 0.0, -2.0)),), joints=(ROD,), gravity=G)
+    swinging = Scene(parts=(Particles.of((bob(velocity=(0.0, 0.0, -2.0)),)), Joints.of((ROD,))), gravity=G)
     assert rod_start_refusal(swinging, "x") is None
-    off_circle = Scene(bodies=(bob((1.5, 0.0, 0.0)),), joints=(ROD,), gravity=G)
+    off_circle = Scene(parts=(Particles.of((bob((1.5, 0.0, 0.0)),)), Joints.of((ROD,))), gravity=G)
     assert rod_start_refusal(off_circle, "x") == (
         "x: body 0 must start at distance L from the anchor, perpendicular to the hinge axis "
         "(distance 1.5 m, rod length 1 m)")
-    off_plane = Scene(bodies=(bob((0.8, 0.6, 0.0)),), joints=(ROD,), gravity=G)
+    off_plane = Scene(parts=(Particles.of((bob((0.8, 0.6, 0.0)),)), Joints.of((ROD,))), gravity=G)
     assert "perpendicular to the hinge axis" in rod_start_refusal(off_plane, "x")
-    second_off = Scene(bodies=(bob(), bob((0.0, 0.0, -3.0))), gravity=G,
-                       joints=(ROD, Joint(body=1, anchor=(0.0, 0.0, -1.0), length=1.0)))
+    second_off = Scene(parts=(Particles.of((bob(), bob((0.0, 0.0, -3.0)))), Joints.of((ROD, Joint(body=1, anchor=(0.0, 0.0, -1.0), length=1.0)))), gravity=G)
     assert rod_start_refusal(second_off, "x").startswith("x: body 1 must start at distance L")
     for velocity in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)):  # radial, along the axis
-        off_arc = Scene(bodies=(bob(velocity=velocity),), joints=(ROD,), gravity=G)
+        off_arc = Scene(parts=(Particles.of((bob(velocity=velocity),)), Joints.of((ROD,))), gravity=G)
         assert rod_start_refusal(off_arc, "x") == \
             "x: body 0's initial velocity must be a rotation about the hinge axis"
 
 
 def test_hinge_frames_hang_theta_zero_along_gravity_and_round_trip_the_start():
     bodies = (bob((0.6, 0.0, -0.8), (0.8, 0.0, 0.6)), bob((5.0, 1.0, 2.0), (1.0, 2.0, 3.0)))
-    scene = Scene(bodies=bodies, joints=(ROD,), gravity=G)
+    scene = Scene(parts=(Particles.of(bodies), Joints.of((ROD,))), gravity=G)
     frames = HingeFrames.from_scene(scene)
     np.testing.assert_array_equal(frames.d, [[0.0, 0.0, -1.0]])
     np.testing.assert_array_equal(frames.g_plane, [9.81])
-    theta, omega = frames.initial_angles(scene.positions, scene.velocities)
+    theta, omega = frames.initial_angles(scene.part(Particles).position, scene.part(Particles).velocity)
     assert theta[0] == pytest.approx(math.atan2(0.6, 0.8), abs=1e-15)
-    x, v = frames.cartesian(theta, omega, scene.positions, scene.velocities)
-    np.testing.assert_allclose(x, scene.positions, atol=1e-15)
-    np.testing.assert_allclose(v, scene.velocities, atol=1e-15)
-    np.testing.assert_array_equal(x[1], scene.positions[1])  # no rod: as given
+    x, v = frames.cartesian(theta, omega, scene.part(Particles).position, scene.part(Particles).velocity)
+    np.testing.assert_allclose(x, scene.part(Particles).position, atol=1e-15)
+    np.testing.assert_allclose(v, scene.part(Particles).velocity, atol=1e-15)
+    np.testing.assert_array_equal(x[1], scene.part(Particles).position[1])  # no rod: as given
 
 
 def test_hinge_frames_of_a_scene_without_rods_are_empty_index_arrays():
-    frames = HingeFrames.from_scene(Scene(bodies=(bob(),)))
+    frames = HingeFrames.from_scene(Scene(parts=(Particles.of((bob(),)),)))
     assert frames.bodies.dtype.kind == "i" and frames.bodies.shape == (0,)
     assert frames.anchor.shape == frames.d.shape == frames.s.shape == (0, 3)
     theta, omega = frames.initial_angles(np.zeros((1, 3)), np.zeros((1, 3)))
@@ -133,7 +133,7 @@ def test_hinge_frames_of_a_scene_without_rods_are_empty_index_arrays():
 
 
 def test_rod_length_errors_are_distance_minus_length_per_rod():
-    scene = Scene(bodies=(bob(),), joints=(ROD,), gravity=G)
+    scene = Scene(parts=(Particles.of((bob(),)), Joints.of((ROD,))), gravity=G)
     np.testing.assert_array_equal(rod_length_errors(scene, np.array([[0.0, 0.0, -1.5]])), [0.5])
 
 
@@ -176,8 +176,8 @@ def test_hydrostatic_densities_give_the_weight_of_the_fluid_above():
 
 
 def test_plane_gravity_takes_x_y_in_2d_and_x_z_in_3d():
-    fluid2 = Scene(bodies=(), fluid=BLOCK, dim=2, gravity=(0.5, -9.81, 0.0))
-    fluid3 = Scene(bodies=(), fluid=BLOCK, dim=3, gravity=(0.5, 0.0, -9.81))
+    fluid2 = Scene(parts=(Particles.of(()), BLOCK), dim=2, gravity=(0.5, -9.81, 0.0))
+    fluid3 = Scene(parts=(Particles.of(()), BLOCK), dim=3, gravity=(0.5, 0.0, -9.81))
     np.testing.assert_array_equal(plane_gravity(fluid2), [0.5, -9.81])
     np.testing.assert_array_equal(plane_gravity(fluid3), [0.5, -9.81])
 
@@ -197,6 +197,6 @@ def test_every_adapter_refuses_a_point_mass_in_contact_with_the_shared_reason(en
 
 @pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
 def test_rod_start_reason_is_shared_by_mujoco_and_pybullet(engine):
-    off_circle = Scene(bodies=(bob((1.5, 0.0, 0.0)),), joints=(ROD,), gravity=G)
+    off_circle = Scene(parts=(Particles.of((bob((1.5, 0.0, 0.0)),)), Joints.of((ROD,))), gravity=G)
     assert get_engine(engine).supports(off_circle, None) == \
         rod_start_refusal(off_circle, f"{engine} adapter")
