@@ -2,8 +2,9 @@
 
 Its step is built from `scene.features()` only: gravity, drag, springs and joints become force
 or constraint stages; nothing else is assembled, and energy is never evaluated while stepping.
-Modules, one per model group:
-- `engine`: RefsimEngine (parts, features, integrators, variants, support, which sim to build);
+`engine`: RefsimEngine (who it is, the integrators it offers, its refusals); `groups/`: one
+module per model group it runs (what it claims, supports, its formulations, the sim it builds).
+The sims the particles, spheres and sph groups build:
 - `stepped`: the base of the sims run by a `refsim.integrators` stepper;
 - `particles`: ParticleSim (free particles, springs, drag; rods as KKT or penalty springs);
 - `hinges`: HingeSim (rods in generalized coordinates, one angle per rod);

@@ -16,6 +16,7 @@ import numpy as np
 
 from refsim.engine import Sim
 from refsim.models import collisions as col
+from refsim.scene import Particles, Walls
 
 CONTACT_VARIANTS = ("discrete", "continuous", "hard_sphere_seed")
 
@@ -26,15 +27,17 @@ class ContactSim(Sim):
 
     def __init__(self, scene, dt, variant):
         self.dt, self.variant = float(dt), variant
-        self.x, self.v = scene.positions.copy(), scene.velocities.copy()
-        self.w = scene.angular_velocities.copy()
-        self.m, self.r = scene.masses, scene.radii
+        bodies = scene.part(Particles)
+        self.x, self.v = bodies.position.copy(), bodies.velocity.copy()
+        self.w = bodies.angular_velocity.copy()
+        self.m, self.r = bodies.mass, bodies.radius
         self.inv_m = 1.0 / self.m
-        inertia = scene.inertias
+        inertia = bodies.inertia
         self.inv_i = np.divide(1.0, inertia, out=np.zeros_like(inertia), where=inertia > 0)
         self.g = np.asarray(scene.gravity)
         self.e, self.mu = scene.contact.restitution, scene.contact.friction
-        self.wall_p, self.wall_n = scene.wall_set.point, scene.wall_set.normal  # read-only
+        walls = scene.part(Walls) or Walls.of(())
+        self.wall_p, self.wall_n = walls.point, walls.normal  # read-only
         self.wall_impulse = np.zeros(3)
         self._step = {"discrete": self._discrete, "continuous": self._continuous,
                       "hard_sphere_seed": self._seed}[variant]

@@ -7,6 +7,7 @@ import numpy as np
 
 from refsim.engine import Sim
 from refsim.models.sph import WCSPH, FluidState
+from refsim.scene import FluidBlock
 
 from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
                                   plane_gravity, wall_particles)
@@ -14,7 +15,7 @@ from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_dens
 
 class FluidSim(Sim):
     def __init__(self, scene, dt):
-        fluid = scene.fluid
+        fluid = scene.part(FluidBlock)
         self.dt, self.fluid = float(dt), fluid
         g = plane_gravity(scene)
         x = fluid_particles(fluid)

@@ -34,7 +34,7 @@ def named_bound(row, p, named):
 
 def impostor_row(monkeypatch, case, variant, named, impostor, dt, engine_variant=""):
     """refsim's engine asked for `named` running `impostor` instead (the steppers it builds)."""
-    import refsim_adapters.refsim_engine.engine as refsim_engine
+    import refsim_adapters.refsim_engine.groups.particles as refsim_engine  # builds the steppers
     real = refsim_engine.get_integrator
     monkeypatch.setattr(refsim_engine, "get_integrator",
                         lambda spec: IMPOSTORS[impostor]() if spec == named else real(spec))

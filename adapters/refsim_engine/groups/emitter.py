@@ -6,7 +6,7 @@ Each `step`: one stepper step of every slot (free slots hold zeros and are stepp
 vector operation, no branch), then the boundary's removals and births; a new particle's
 stepper state is the stepper's own `start` of its spawn state, merged into the carried state
 by a slot mask (so Verlet's carried acceleration, Stormer's difference and leapfrog's half
-step velocity are started for it as for a fresh run). Formulations (engine variants):
+step velocity are started for it as for a fresh run). Formulations (named alternatives of one model):
 "corrected" (default) and "as_printed" (slide 002: k particles a step, no acceleration).
 Observables: see refsim/scene/emitter.py.
 """
@@ -19,14 +19,15 @@ from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.models import emitter as em
 from refsim.models.system import ParticleSystem
-from refsim.scene.emitter import FREE_SLOT_VALUE, emitter_of
+from refsim.scene.emitter import FREE_SLOT_VALUE
+from refsim.scene.emitter import Emitter
 
 INTEGRATORS = ("explicit_euler", "symplectic_euler", "symplectic_euler_dk", "midpoint", "heun",
                "rk2", "rk4", "dopri5", "stormer_verlet", "velocity_verlet", "leapfrog")
 class EmitterSim(Sim):
     def __init__(self, scene, dt, stepper, formulation):
         self.dt, self.stepper, self.formulation = float(dt), stepper, formulation
-        self.emitter, self.gravity = emitter_of(scene), np.asarray(scene.gravity, float)
+        self.emitter, self.gravity = scene.part(Emitter), np.asarray(scene.gravity, float)
         self.capacity = em.capacity(self.emitter, self.dt, formulation)
         self.life_steps = em.life_steps(self.emitter, self.dt)
         g = np.zeros(3) if formulation == "as_printed" else self.gravity
@@ -83,7 +84,7 @@ class EmitterSim(Sim):
 
 
 def _claims(scene) -> bool:
-    return emitter_of(scene) is not None
+    return scene.part(Emitter) is not None
 
 
 def _supports(engine, scene, integrator):
@@ -93,14 +94,14 @@ def _supports(engine, scene, integrator):
     return None
 
 
-def _variants(engine, scene):
+def _formulations(engine, scene):
     return em.FORMULATIONS
 
 
-def _build(engine, scene, dt, integrator, variant):
-    return EmitterSim(scene, dt, get_integrator(integrator), variant or "corrected")
+def _build(engine, scene, dt, integrator, formulation):
+    return EmitterSim(scene, dt, get_integrator(integrator), formulation or "corrected")
 
 
 MODEL_GROUP = ModelGroup(name="emitter", build=_build, claims=_claims,
                          parts=frozenset({"emitter"}), features=frozenset({"emitter", "gravity"}),
-                         supports=_supports, variants=_variants, integrators=INTEGRATORS)
+                         supports=_supports, formulations=_formulations, integrators=INTEGRATORS)

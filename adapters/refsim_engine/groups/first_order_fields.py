@@ -26,6 +26,7 @@ from refsim_adapters.common.first_order import (  # noqa: F401
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators.first_order import get_first_order
 from refsim.models.surface_sampling import SphereSampling
+from refsim.scene import Particles
 
 
 def supports(engine, scene, integrator):
@@ -39,7 +40,7 @@ class FirstOrderSim(Sim):
         self.dt, self.integrator = float(dt), integrator
         self.stepper = get_first_order(integrator)
         self.system, self.model = make_system(scene), model_text(scene)
-        self.p = np.array(scene.particles.position, float)
+        self.p = np.array(scene.part(Particles).position, float)
         project = getattr(self.system, "project", None)
         if project is not None:  # start on the surface
             self.p = project(self.p)
@@ -66,7 +67,7 @@ class FirstOrderSim(Sim):
                 "vectorised": "numpy over particles (and pairs for sampling)"}
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     return FirstOrderSim(scene, dt, integrator)
 
 

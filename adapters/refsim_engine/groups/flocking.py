@@ -7,7 +7,8 @@ from __future__ import annotations
 from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.models.flocking import FlockSystem
-from refsim.scene.flocking import flocking_of
+from refsim.scene.flocking import Flocking
+from refsim.scene import Particles
 
 from ..stepped import SteppedSim
 
@@ -20,10 +21,11 @@ INTEGRATORS = ("explicit_euler", "symplectic_euler", "symplectic_euler_dk", "mid
 
 class FlockSim(SteppedSim):
     def __init__(self, scene, dt, stepper):
-        self.scene, self.flocking = scene, flocking_of(scene)
-        system = FlockSystem(self.flocking, len(scene.bodies))
-        super().__init__(dt, stepper, system, scene.positions.reshape(-1),
-                         scene.velocities.reshape(-1))
+        self.scene, self.flocking = scene, scene.part(Flocking)
+        birds = scene.part(Particles)
+        system = FlockSystem(self.flocking, len(birds))
+        super().__init__(dt, stepper, system, birds.position.reshape(-1),
+                         birds.velocity.reshape(-1))
 
     def stages(self):
         return self.system.stages() + [f"integrate:{self.stepper.name}"]
@@ -47,19 +49,19 @@ class FlockSim(SteppedSim):
 
 
 def _claims(scene) -> bool:
-    return flocking_of(scene) is not None
+    return scene.part(Flocking) is not None
 
 
 def _supports(engine, scene, integrator):
     if integrator is not None and integrator not in INTEGRATORS:
         return (f"refsim flocking: integrator must be one of {list(INTEGRATORS)} (got "
                 f"{integrator!r})")
-    if not len(scene.bodies):
+    if scene.part(Particles) is None:
         return "refsim flocking needs the birds as scene.bodies (Particles)"
     return None
 
 
-def _build(engine, scene, dt, integrator, variant):
+def _build(engine, scene, dt, integrator, formulation):
     return FlockSim(scene, dt, get_integrator(integrator))
 
 

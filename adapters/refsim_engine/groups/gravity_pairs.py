@@ -21,7 +21,8 @@ from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.integrators.spec import spec_name
 from refsim.models.nbody_gravity import GravitySystem
-from refsim.scene.gravity_pairs import gravity_pairs_of
+from refsim.scene.gravity_pairs import GravityPairs
+from refsim.scene import Particles
 
 from ..stepped import SteppedSim
 
@@ -35,7 +36,7 @@ BLOCK_ROWS_ABOVE = 2000  # evaluate rows in blocks of this many beyond it (bound
 
 class GravitySim(SteppedSim):
     def __init__(self, scene, dt, stepper):
-        bodies, pairs = scene.particles, gravity_pairs_of(scene)
+        bodies, pairs = scene.part(Particles), scene.part(GravityPairs)
         n = len(bodies)
         self.scene, self.pairs = scene, pairs
         self.block_rows = BLOCK_ROWS_ABOVE if n > BLOCK_ROWS_ABOVE else None
@@ -76,7 +77,7 @@ def _claims(scene) -> bool:
 
 
 def _supports(engine, scene, integrator):
-    n = len(scene.particles)
+    n = len(scene.part(Particles))
     if integrator is not None and spec_name(integrator) == "implicit_euler" \
             and n > MAX_IMPLICIT_BODIES:
         return (f"refsim gravity: implicit_euler solves a dense {3 * n} x {3 * n} Jacobian "
@@ -84,7 +85,7 @@ def _supports(engine, scene, integrator):
     return None
 
 
-def _build(engine, scene, dt, integrator, variant):
+def _build(engine, scene, dt, integrator, formulation):
     return GravitySim(scene, dt, get_integrator(integrator))
 
 

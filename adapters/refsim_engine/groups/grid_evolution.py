@@ -29,12 +29,13 @@ from refsim.integrators import get_integrator
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.sparse_linear import first_order_implicit, second_order_implicit
 from refsim.models.grid_pde import GridPDE
+from refsim.scene import Grid
 
 from ..stepped import SteppedSim
 
 
 def supports(engine, scene, integrator):
-    return scene_reason(scene, "refsim") or integrator_reason(scene.grids[0], integrator)
+    return scene_reason(scene, "refsim") or integrator_reason(scene.part(Grid), integrator)
 
 
 class HeatSim(Sim):

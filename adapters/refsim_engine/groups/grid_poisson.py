@@ -7,7 +7,7 @@ the initial guess inside) and "f" (right-hand side at every point), coefficient 
 relative residual target ||f - L_h u||_2 / ||f||_2 over the free points, in (0, 1)). One
 integrator, "steady": no time stepping, one `step()` is one complete solve from the scene's
 initial guess, solver setup included (each step re-solves from it, so a timing pass of fresh
-Sims times the whole solve). Formulations (engine variants): "direct" (SuperLU, the default),
+Sims times the whole solve). Formulations (named alternatives of one model): "direct" (SuperLU, the default),
 "cg" (no preconditioner), "multigrid" (in-house geometric multigrid, 2^k + 1 points per axis),
 "pyamg" (smoothed aggregation, CG-accelerated).
 
@@ -22,6 +22,7 @@ from refsim.engine import ModelGroup, Sim
 from refsim.models.multigrid import multigrid_reason
 from refsim.models.poisson_solvers import (DEFAULT_OPTIONS, METHODS, PoissonProblem,
                                            dirichlet_reason, solve_problem)
+from refsim.scene import Grid
 
 INTEGRATORS = ("steady",)
 STEADY = {"name": "steady", "order": 0, "family": "static solve", "explicit": False,
@@ -36,14 +37,14 @@ SOLVER_TEXT = {
 
 
 def claims(scene) -> bool:
-    return len(scene.grids) == 1 and scene.grids[0].model == "poisson"
+    return len(scene.parts_of(Grid)) == 1 and scene.parts_of(Grid)[0].model == "poisson"
 
 
 def supports(engine, scene, integrator):
     if scene.part_kinds() != {"grids"}:
         return (f"refsim poisson: a grid alone, got also "
                 f"{', '.join(sorted(scene.part_kinds() - {'grids'}))}")
-    grid = scene.grids[0]
+    grid = scene.part(Grid)
     reason = dirichlet_reason(grid)
     if reason:
         return f"refsim {reason}"
@@ -53,7 +54,7 @@ def supports(engine, scene, integrator):
     return None
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     return METHODS
 
 
@@ -107,10 +108,10 @@ class PoissonSim(Sim):
         return out
 
 
-def build(engine, scene, dt, integrator, variant):
-    return PoissonSim(scene.grids[0], dt, variant or METHODS[0])
+def build(engine, scene, dt, integrator, formulation):
+    return PoissonSim(scene.part(Grid), dt, formulation or METHODS[0])
 
 
 MODEL_GROUP = ModelGroup(name="grid_poisson", build=build, claims=claims,
                          parts=frozenset({"grids"}), features=frozenset({"grid", "poisson"}),
-                         supports=supports, variants=variants, integrators=INTEGRATORS)
+                         supports=supports, formulations=formulations, integrators=INTEGRATORS)

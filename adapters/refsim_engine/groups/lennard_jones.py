@@ -18,7 +18,8 @@ from refsim_adapters.common.particle_fields import supports_scene
 from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.models.lennard_jones import LennardJonesModel, LennardJonesSystem
-from refsim.scene.lennard_jones import lennard_jones_of
+from refsim.scene.lennard_jones import LennardJones
+from refsim.scene import Particles
 
 from ..stepped import SteppedSim
 
@@ -27,11 +28,12 @@ INTEGRATORS = ("velocity_verlet", "symplectic_euler", "rk4", "explicit_euler")
 
 class LennardJonesSim(SteppedSim):
     def __init__(self, scene, dt, stepper):
-        self.scene, self.part = scene, lennard_jones_of(scene)
-        system = LennardJonesSystem(scene.masses, LennardJonesModel.of_part(self.part),
+        self.scene, self.part = scene, scene.part(LennardJones)
+        bodies = scene.part(Particles)
+        system = LennardJonesSystem(bodies.mass, LennardJonesModel.of_part(self.part),
                                     scene.dim)
-        super().__init__(dt, stepper, system, np.array(scene.positions).reshape(-1),
-                         np.array(scene.velocities).reshape(-1))
+        super().__init__(dt, stepper, system, np.array(bodies.position).reshape(-1),
+                         np.array(bodies.velocity).reshape(-1))
 
     def stages(self):
         return self.system.stages() + [f"integrate:{self.stepper.name}"]
@@ -63,7 +65,7 @@ def _supports(engine, scene, integrator):
     return supports_scene(scene, "refsim")
 
 
-def _build(engine, scene, dt, integrator, variant):
+def _build(engine, scene, dt, integrator, formulation):
     return LennardJonesSim(scene, dt, get_integrator(integrator))
 
 

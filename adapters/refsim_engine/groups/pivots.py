@@ -25,7 +25,9 @@ from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.models.rigid_orientation import get_formulation
 from refsim.models.rigid_pivot import PivotedRigidSystem
-from refsim.scene.pivots import check_on_anchor, pivots_of
+from refsim.scene.pivots import check_on_anchor
+from refsim.scene.pivots import RigidPivots
+from refsim.scene import RigidBodies
 
 from ..stepped import SteppedSim
 from .rigid import DEFAULT_FORMULATION, INTEGRATORS, VARIANTS, RigidSim
@@ -39,7 +41,7 @@ class PivotSim(RigidSim):
     """A RigidSim whose system is `PivotedRigidSystem` (its settings and stages reused)."""
 
     def __init__(self, scene, dt, stepper, formulation):
-        rigid, pivots, self.scene = scene.rigid, pivots_of(scene), scene
+        rigid, pivots, self.scene = scene.part(RigidBodies), scene.part(RigidPivots), scene
         check_on_anchor(pivots, rigid)
         order = np.argsort(pivots.body)  # every body has one pivot: sorted bodies = 0..n-1
         self.formulation = get_formulation(formulation)
@@ -73,29 +75,29 @@ class PivotSim(RigidSim):
 
 def _claims(scene) -> bool:
     """Scenes of rigid bodies and a RigidPivots part, nothing else (no contact model)."""
-    return scene.rigid is not None and scene.part_kinds() == {"rigid", "rigid_pivots"} \
+    return scene.part(RigidBodies) is not None and scene.part_kinds() == {"rigid", "rigid_pivots"} \
         and scene.contact is None
 
 
 def _supports(engine, scene, integrator):
     if scene.dim != 3:
         return "refsim rigid bodies are 3D (quaternion or 3x3 orientation)"
-    pivots, n = pivots_of(scene), len(scene.rigid)
+    pivots, n = scene.part(RigidPivots), len(scene.part(RigidBodies))
     if len(pivots) != n or np.any(pivots.body >= n):
         return (f"refsim pivots need every rigid body pivoted ({n} bodies, pivots on "
                 f"{sorted(pivots.body.tolist())}): free and pivoted bodies are not mixed")
     return None
 
 
-def _variants(engine, scene):
+def _formulations(engine, scene):
     return VARIANTS
 
 
-def _build(engine, scene, dt, integrator, variant):
-    return PivotSim(scene, dt, get_integrator(integrator), variant or DEFAULT_FORMULATION)
+def _build(engine, scene, dt, integrator, formulation):
+    return PivotSim(scene, dt, get_integrator(integrator), formulation or DEFAULT_FORMULATION)
 
 
 MODEL_GROUP = ModelGroup(name="pivots", build=_build, claims=_claims,
                          parts=frozenset({"rigid", "rigid_pivots"}),
                          features=frozenset({"rigid", "gravity", "pivots"}),
-                         supports=_supports, variants=_variants, integrators=INTEGRATORS)
+                         supports=_supports, formulations=_formulations, integrators=INTEGRATORS)

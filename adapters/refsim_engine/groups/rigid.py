@@ -18,6 +18,7 @@ from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
 from refsim.models.rigid_body import RigidBodySystem
 from refsim.models.rigid_orientation import FORMULATIONS, get_formulation
+from refsim.scene import RigidBodies
 
 from ..stepped import SteppedSim
 
@@ -28,7 +29,7 @@ INTEGRATORS = ("symplectic_euler", "explicit_euler", "midpoint", "rk4", "implici
 
 class RigidSim(SteppedSim):
     def __init__(self, scene, dt, stepper, formulation):
-        rigid, self.scene = scene.rigid, scene
+        rigid, self.scene = scene.part(RigidBodies), scene
         self.formulation = get_formulation(formulation)
         system = RigidBodySystem(rigid.mass, rigid.inertia, scene.gravity, self.formulation)
         x0 = system.configuration(rigid.position, rigid.orientation)
@@ -81,7 +82,7 @@ class RigidSim(SteppedSim):
 def _claims(scene) -> bool:
     """Scenes whose only part is `rigid` (no particles, springs, joints, walls, contact
     model, fluid, networks, meshes, grids or extra parts)."""
-    return scene.rigid is not None and scene.part_kinds() == {"rigid"} \
+    return scene.part(RigidBodies) is not None and scene.part_kinds() == {"rigid"} \
         and scene.contact is None
 
 
@@ -91,14 +92,14 @@ def _supports(engine, scene, integrator):
     return None
 
 
-def _variants(engine, scene):
+def _formulations(engine, scene):
     return VARIANTS
 
 
-def _build(engine, scene, dt, integrator, variant):
-    return RigidSim(scene, dt, get_integrator(integrator), variant or DEFAULT_FORMULATION)
+def _build(engine, scene, dt, integrator, formulation):
+    return RigidSim(scene, dt, get_integrator(integrator), formulation or DEFAULT_FORMULATION)
 
 
 MODEL_GROUP = ModelGroup(name="rigid", build=_build, claims=_claims,
                          parts=frozenset({"rigid"}), features=frozenset({"rigid", "gravity"}),
-                         supports=_supports, variants=_variants, integrators=INTEGRATORS)
+                         supports=_supports, formulations=_formulations, integrators=INTEGRATORS)

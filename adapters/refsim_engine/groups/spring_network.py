@@ -4,7 +4,7 @@ pinned nodes; refsim.models.spring_network) advanced by refsim's own steppers on
 nodes: symplectic Euler, velocity Verlet, RK4 and Baraff-Witkin, and the drift-kick symplectic
 Euler (`symplectic_euler_dk`), pymunk's own step, so pymunk's rows have an in-house twin.
 
-Formulations (engine variants) choose Baraff-Witkin's linear solve where it is sparse (a state
+Formulations (named alternatives of one model) choose Baraff-Witkin's linear solve where it is sparse (a state
 of SPARSE_MIN entries or more): "" = SuperLU (scipy.sparse.linalg.spsolve), "cg" = conjugate
 gradient to relative residual CG_RTOL. Smaller networks solve densely, and offer no "cg".
 Observes x and v of every node (pinned ones included).
@@ -23,6 +23,7 @@ from refsim.engine import ModelGroup
 from refsim.integrators import BaraffWitkin, get_integrator
 from refsim.integrators.implicit import SPARSE_MIN
 from refsim.models.spring_network import NetworkSystem
+from refsim.scene import SpringNetwork
 
 from ..stepped import SteppedSim
 
@@ -36,10 +37,10 @@ class NetworkSim(SteppedSim):
         self.variant = variant
         stepper = (BaraffWitkin("cg" if variant == "cg" else "direct", CG_RTOL)
                    if integrator == "baraff_witkin" else get_integrator(integrator))
-        system = NetworkSystem(scene.networks[0], scene.gravity, scene.linear_drag)
+        system = NetworkSystem(scene.part(SpringNetwork), scene.gravity, scene.linear_drag)
         free = system.free
-        super().__init__(dt, stepper, system, scene.networks[0].positions[free].reshape(-1),
-                         scene.networks[0].velocities[free].reshape(-1))
+        super().__init__(dt, stepper, system, scene.part(SpringNetwork).positions[free].reshape(-1),
+                         scene.part(SpringNetwork).velocities[free].reshape(-1))
 
     def stages(self):
         kinds = sorted(self.system.net.edge_kinds())
@@ -63,15 +64,15 @@ def supports(engine, scene, integrator):
     return scene_reason(scene, "refsim") or integrator_reason(integrator, INTEGRATORS)
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     return solve_formulations(scene)
 
 
-def build(engine, scene, dt, integrator, variant):
-    return NetworkSim(scene, dt, integrator, variant)
+def build(engine, scene, dt, integrator, formulation):
+    return NetworkSim(scene, dt, integrator, formulation)
 
 
 MODEL_GROUP = ModelGroup(name="spring_network", build=build, claims=claims,
                          parts=frozenset({"networks"}),
                          features=frozenset({"networks", "gravity", "drag"}),
-                         supports=supports, variants=variants, integrators=INTEGRATORS)
+                         supports=supports, formulations=formulations, integrators=INTEGRATORS)

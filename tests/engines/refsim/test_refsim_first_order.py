@@ -24,8 +24,7 @@ def test_group_claims_and_offers_first_order_only():
 
 
 def test_gravity_refused():
-    scene = Scene(bodies=Particles(mass=[1.0], position=[[0.0, 0.0, 1.0]]),
-                  extra=(VelocityField(),), gravity=(0.0, 0.0, -9.81))
+    scene = Scene(parts=(Particles(mass=[1.0], position=[[0.0, 0.0, 1.0]]), VelocityField()), gravity=(0.0, 0.0, -9.81))
     assert "gravity" in registry.get_engine("refsim").supports(scene, "rk4")
 
 
@@ -36,8 +35,8 @@ def test_observation_contract_and_settings():
     sim.step(3)
     obs = sim.observe()
     assert check_observation(obs, scene) == []
-    field = VelocityField("rigid_vortex", centre=scene.extra[0].centre,
-                          omega=scene.extra[0].omega)
+    field = VelocityField("rigid_vortex", centre=scene.part(VelocityField).centre,
+                          omega=scene.part(VelocityField).omega)
     want = (obs["x"] - np.array(field.centre)) @ field.matrix().T
     assert np.array_equal(obs["v"], want)
     settings = json.loads(json.dumps(sim.settings()))

@@ -12,7 +12,7 @@ def scene(n=3, seed=0, **pairs):
     rng = np.random.default_rng(seed)
     bodies = Particles(mass=rng.uniform(0.5, 1.5, n), position=rng.normal(size=(n, 3)) * 2,
                        velocity=rng.normal(size=(n, 3)) * 0.1)
-    return Scene(bodies=bodies, extra=(GravityPairs(**pairs),))
+    return Scene(parts=(Particles.of(bodies), GravityPairs(**pairs)))
 
 
 def test_group_claims_and_offers_its_steppers():

@@ -26,7 +26,7 @@ def registered():
 def _two_atoms(dim=3, box=None, z=0.0):
     x = np.array([[0.0, 0.0, 0.0], [1.2, 0.0, z]])
     part = LennardJones(cutoff=2.5 if box else np.inf, box=box)
-    return Scene(bodies=Particles(mass=np.ones(2), position=x), extra=(part,), dim=dim)
+    return Scene(parts=(Particles(mass=np.ones(2), position=x), part), dim=dim)
 
 
 def test_group_claims_and_offers_the_md_integrators():

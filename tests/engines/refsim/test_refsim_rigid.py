@@ -6,6 +6,7 @@ import pytest
 from refsim.observation import check_observation
 from refsim.registry import get_engine
 from refsim.scene import Body, Scene
+from refsim.scene import Particles
 from refsim.scene.rigid import RigidBodies
 
 EPS = np.finfo(float).eps
@@ -15,10 +16,10 @@ G = (0.0, 0.0, -9.81)
 def rigid_scene(n=2, gravity=G, seed=0):
     rng = np.random.default_rng(seed)
     q = rng.normal(size=(n, 4))
-    return Scene(gravity=gravity, rigid=RigidBodies(
+    return Scene(parts=(RigidBodies(
         mass=rng.uniform(1, 2, n), inertia=np.tile(np.diag([1.0, 2.0, 3.0]), (n, 1, 1)),
         position=rng.normal(size=(n, 3)), orientation=q / np.linalg.norm(q, axis=1)[:, None],
-        velocity=rng.normal(size=(n, 3)), angular_velocity=rng.normal(size=(n, 3))))
+        velocity=rng.normal(size=(n, 3)), angular_velocity=rng.normal(size=(n, 3))),), gravity=gravity)
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +36,7 @@ def test_group_claims_rigid_scenes_only(engine):
                                                  "midpoint", "rk4", "implicit_midpoint")
     assert engine.supports(scene, "rk4") is None
     assert "offers no integrator" in engine.supports(scene, "implicit_euler")
-    particles = Scene(bodies=(Body(mass=1.0, position=(0, 0, 0)),), gravity=G)
+    particles = Scene(parts=(Particles.of((Body(mass=1.0, position=(0, 0, 0)),)),), gravity=G)
     assert engine.group_for(particles) is None or engine.group_for(particles).name != "rigid"
 
 
@@ -63,7 +64,7 @@ def test_symplectic_euler_free_fall_is_the_exact_discrete_sum(engine):
     scene, dt, k = rigid_scene(), 0.01, 100
     sim = engine.build(scene, dt, "symplectic_euler", "quat_exp")
     sim.step(k)
-    rigid = scene.rigid
+    rigid = scene.part(RigidBodies)
     expected = rigid.position + k * dt * rigid.velocity + k * (k + 1) / 2 * dt * dt * np.array(G)
     assert np.max(np.abs(sim.observe()["x"] - expected)) <= 1e-12
 
@@ -87,10 +88,10 @@ def test_many_bodies_step_together_like_one(engine):
     sim.step(10)
     pick = [0, 517, 999]
     rigid = many.rigid
-    one = Scene(gravity=G, rigid=RigidBodies(
+    one = Scene(parts=(RigidBodies(
         mass=rigid.mass[pick], inertia=rigid.inertia[pick], position=rigid.position[pick],
         orientation=rigid.orientation[pick], velocity=rigid.velocity[pick],
-        angular_velocity=rigid.angular_velocity[pick]))
+        angular_velocity=rigid.angular_velocity[pick]),), gravity=G)
     alone = engine.build(one, 0.01, "rk4", "quat_exp")
     alone.step(10)
     for key in ("x", "v", "q", "w"):

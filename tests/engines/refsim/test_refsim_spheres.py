@@ -5,6 +5,7 @@ import pytest
 
 from refsim.registry import get_case
 from refsim.models import collisions as col
+from refsim.scene import Particles
 from refsim.testing import accuracy
 
 CASE = get_case("sphere_pairs")
@@ -92,7 +93,7 @@ def test_hard_sphere_seed_formula_breaks_conservation_as_derived():
     for variant, kept in (("head_on", True), ("head_on_1to3", False)):
         p = CASE.variant_params(variant)
         scene = CASE.scene(p)
-        x, v, m = scene.positions, scene.velocities.copy(), scene.masses
+        x, v, m = scene.part(Particles).position, scene.part(Particles).velocity.copy(), scene.part(Particles).mass
         x = x + np.array([[0.4, 0, 0], [-0.4, 0, 0]])  # just overlapping
         u = x[0] - x[1]
         before = m @ v
@@ -101,7 +102,7 @@ def test_hard_sphere_seed_formula_breaks_conservation_as_derived():
         assert np.allclose(m @ v - before, predicted, atol=1e-15)
         assert np.allclose(m @ v, before, atol=1e-15) == kept
         assert 0.5 * m @ np.sum(v * v, axis=1) != pytest.approx(
-            0.5 * m @ np.sum(scene.velocities ** 2, axis=1), rel=1e-6)
+            0.5 * m @ np.sum(scene.part(Particles).velocity ** 2, axis=1), rel=1e-6)
     row = accuracy("sphere_pairs", "head_on_1to3", "refsim", "symplectic_euler", 1e-3,
                    "hard_sphere_seed")
     assert not (row["consistency"] == "consistent") and row["momentum_drift"] > 0.1

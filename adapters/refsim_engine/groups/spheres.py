@@ -1,0 +1,42 @@
+"""The in-house engine's spheres group: spheres (and walls) under a contact model, stepped by
+a gravity kick and one of three contact formulations (`contacts.ContactSim`: discrete,
+continuous, the slide's hard-sphere update as printed). Springs, rods and drag are not combined
+with contacts: those scenes are claimed here and refused with the reason."""
+from __future__ import annotations
+
+from refsim.engine import ModelGroup
+from refsim.scene import Joints, Springs
+
+from ...common.checks import non_sphere_bodies
+
+KINDS = frozenset({"particles", "springs", "joints", "walls"})
+
+
+def claims(scene) -> bool:
+    kinds = scene.part_kinds()
+    return scene.contact is not None and "particles" in kinds and kinds <= KINDS
+
+
+def _formulations(engine, scene):
+    from ..contacts import CONTACT_VARIANTS
+    return CONTACT_VARIANTS
+
+
+def _supports(engine, scene, integrator):
+    if integrator not in (None, "symplectic_euler"):
+        return ("refsim contact scenes step with symplectic Euler plus impulses: the contact "
+                "solver defines the step")
+    if scene.part(Springs) is not None or scene.part(Joints) is not None or scene.linear_drag:
+        return "refsim contact scenes: springs, rods and drag are not combined with contacts"
+    return non_sphere_bodies(scene, "refsim")
+
+
+def _build(engine, scene, dt, integrator, formulation):
+    from ..contacts import ContactSim
+    return ContactSim(scene, dt, formulation)
+
+
+MODEL_GROUP = ModelGroup(
+    name="spheres", claims=claims, parts=KINDS,
+    features=frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"}),
+    supports=_supports, formulations=_formulations, build=_build)
