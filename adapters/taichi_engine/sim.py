@@ -37,7 +37,17 @@ NATIVE = {"symplectic_euler": "kernel kick_drift: v += h a(x, v); x += h v",
           "velocity_verlet": "kernel velocity_verlet: v += h/2 a; x += h v; a = a(x, v); "
                              "v += h/2 a (closing half kick corrected once when a depends on v)",
           "rk4": "kernel rk4: classical 4-stage Runge-Kutta on (x, v)"}
+INTEGRATORS = tuple(NATIVE)  # the steppers these kernels implement (the engine's)
 I32_MAX = 2 ** 31 - 1  # steps per launch at most (n is an i32 kernel argument)
+
+
+def checked_integrator(integrator: str) -> str:
+    """`integrator` when it names one of INTEGRATORS exactly (the base lets "rk4:2" through:
+    there is no order parameter here), else a ValueError."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"taichi integrator must be one of {list(INTEGRATORS)}, "
+                         f"got {integrator!r}")
+    return integrator
 
 
 class KernelSim(Sim):

@@ -23,7 +23,7 @@ from refsim_adapters.common.particle_fields import PRINTED
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.models import emitter as em
-from refsim.scene.emitter import FREE_SLOT_VALUE, emitter_of
+from refsim.scene.emitter import FREE_SLOT_VALUE, Emitter
 
 from ..kernel_store import arrays_setting, observed, to_taichi
 from .flocking import chain_tableau
@@ -47,7 +47,7 @@ class EmitterKernelSim(Sim):
         rt = runtime()
         self.dt, self.integrator, self.formulation = float(dt), integrator, formulation
         self.stepper = get_integrator(integrator)
-        self.emitter = emitter_of(scene)
+        self.emitter = scene.part(Emitter)
         self.capacity = em.capacity(self.emitter, self.dt, formulation)
         self.life_steps = em.life_steps(self.emitter, self.dt)
         g = np.zeros(3) if formulation == "as_printed" else np.asarray(scene.gravity, float)
@@ -135,7 +135,7 @@ class EmitterKernelSim(Sim):
 
 
 def claims(scene) -> bool:
-    return emitter_of(scene) is not None
+    return scene.part(Emitter) is not None
 
 
 def supports(engine, scene, integrator):
@@ -145,17 +145,17 @@ def supports(engine, scene, integrator):
     return None
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     return em.FORMULATIONS
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in INTEGRATORS:
         raise ValueError(f"taichi emitter integrator must be one of {list(INTEGRATORS)}, got "
                          f"{integrator!r}")
-    return EmitterKernelSim(scene, dt, integrator, variant or "corrected")
+    return EmitterKernelSim(scene, dt, integrator, formulation or "corrected")
 
 
 MODEL_GROUP = ModelGroup(name="emitter", build=build, claims=claims,
                          parts=frozenset({"emitter"}), features=frozenset({"emitter", "gravity"}),
-                         supports=supports, variants=variants, integrators=INTEGRATORS)
+                         supports=supports, formulations=formulations, integrators=INTEGRATORS)

@@ -26,8 +26,9 @@ from refsim_adapters.common.first_order import (
 )
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators.first_order import get_first_order
-from refsim.scene.surface_sampling import surface_sampling_of
-from refsim.scene.velocity_field import velocity_field_of
+from refsim.scene import Particles
+from refsim.scene.surface_sampling import SurfaceSampling
+from refsim.scene.velocity_field import VelocityField
 
 from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..sim import I32_MAX
@@ -37,11 +38,11 @@ SAMPLING_NATIVE = ("kernel: the tableau (a runtime array) stage by stage over al
 
 
 def claims(scene) -> bool:
-    return velocity_field_of(scene) is not None or surface_sampling_of(scene) is not None
+    return scene.part(VelocityField) is not None or scene.part(SurfaceSampling) is not None
 
 
 def offered_for(scene) -> tuple:
-    return SAMPLING_INTEGRATORS if surface_sampling_of(scene) is not None \
+    return SAMPLING_INTEGRATORS if scene.part(SurfaceSampling) is not None \
         else FIELD_INTEGRATORS
 
 
@@ -56,7 +57,7 @@ class AffineFieldSim(Sim):
         from .. import first_order_kernels as fk
         from ..runtime import THREADS, effective_config, runtime
         rt = runtime()
-        field = velocity_field_of(scene)
+        field = scene.part(VelocityField)
         self.dt, self.integrator, self.steps = float(dt), integrator, 0
         self.stepper = get_first_order(integrator)
         self.matrix, self.centre = field.matrix(), np.array(field.centre, float)
@@ -66,7 +67,7 @@ class AffineFieldSim(Sim):
         if self.cold:
             rt["kernels"][key] = fk.affine_kernel(integrator)
         self.advance = rt["kernels"][key]
-        self.p = to_ndarray(np.array(scene.particles.position, float))
+        self.p = to_ndarray(np.array(scene.part(Particles).position, float))
         self.args = (self.p, fk.mat3(self.matrix.tolist()), fk.vec3(self.centre.tolist()))
         t0 = time.perf_counter()
         self.advance(*self.args, self.dt, 0)  # compiles on first use
@@ -103,14 +104,14 @@ class SphereSamplingSim(Sim):
         from .. import sampling_kernels as sk
         from ..runtime import THREADS, effective_config, runtime
         rt = runtime()
-        part = surface_sampling_of(scene)
+        part = scene.part(SurfaceSampling)
         self.dt, self.integrator, self.steps = float(dt), integrator, 0
         self.stepper = get_first_order(integrator)
         self.system, self.model = make_system(scene), model_text(scene)
         self.threads, self.config = THREADS, effective_config()
         self.cold = "surface_sampling" not in rt["compiled"]
         self.advance = sk.advance
-        start = self.system.project(np.array(scene.particles.position, float))  # as refsim
+        start = self.system.project(np.array(scene.part(Particles).position, float))  # as refsim
         self.p = to_ndarray(start)
         tableau = sk.tableau_array(self.stepper.tableau)
         slopes = rt["ti"].ndarray(sk.vec3, shape=(len(self.stepper.tableau.b), len(start)))
@@ -157,8 +158,8 @@ class SphereSamplingSim(Sim):
         self.args = ()
 
 
-def build(engine, scene, dt, integrator, variant):
-    if surface_sampling_of(scene) is not None:
+def build(engine, scene, dt, integrator, formulation):
+    if scene.part(SurfaceSampling) is not None:
         return SphereSamplingSim(scene, dt, integrator)
     return AffineFieldSim(scene, dt, integrator)
 

@@ -14,7 +14,8 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
-from refsim.scene.flocking import flocking_of
+from refsim.scene import Particles
+from refsim.scene.flocking import Flocking
 
 from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..sim import KernelSim
@@ -67,11 +68,12 @@ class FlockKernelSim(KernelSim):
         if (self.system, integrator) not in made:
             made[(self.system, integrator)] = fk.flock_kernels(method)
         cold = not any(key[0] == self.system for key in rt["compiled"])
-        self.flocking, n = flocking_of(scene), len(scene.bodies)
+        birds = scene.part(Particles)
+        self.flocking, n = scene.part(Flocking), len(birds)
         f = self.flocking
         # x, v: numpy arrays handed to the kernel (read and written in place: observing
         # them is a numpy copy, not a taichi-to-numpy transfer of ~1 ms a call)
-        self.x, self.v = to_ndarray(scene.positions), to_ndarray(scene.velocities)
+        self.x, self.v = to_ndarray(birds.position), to_ndarray(birds.velocity)
         stage = {name: to_taichi(np.zeros((n, 3))) for name in ("acc", "xs", "vs", "sx", "sv")}
         self.pack = fk.flock_t(rule=fk.RULES[f.rule], K=f.K, sigma2=f.sigma * f.sigma,
                                beta=f.beta, radius2=f.radius * f.radius, w_sep=f.separation,
@@ -107,19 +109,19 @@ class FlockKernelSim(KernelSim):
 
 
 def claims(scene) -> bool:
-    return flocking_of(scene) is not None
+    return scene.part(Flocking) is not None
 
 
 def supports(engine, scene, integrator):
     if integrator is not None and integrator not in INTEGRATORS:
         return (f"taichi flocking group: integrator must be one of {list(INTEGRATORS)} (got "
                 f"{integrator!r})")
-    if not len(scene.bodies):
-        return "taichi flocking needs the birds as scene.bodies (Particles)"
+    if scene.part(Particles) is None:
+        return "taichi flocking needs the birds as a Particles part"
     return None
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in INTEGRATORS:
         raise ValueError(f"taichi flocking integrator must be one of {list(INTEGRATORS)}, "
                          f"got {integrator!r}")

@@ -14,7 +14,8 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 from refsim.models.nbody_gravity import GravitySystem
-from refsim.scene.gravity_pairs import gravity_pairs_of
+from refsim.scene import Particles
+from refsim.scene.gravity_pairs import GravityPairs
 
 from ..kernel_store import observed, to_ndarray, to_taichi
 from ..sim import KernelSim
@@ -39,7 +40,7 @@ def supports(engine, scene, integrator):
     return None
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in INTEGRATORS:
         raise ValueError(f"taichi gravity integrator must be one of {list(INTEGRATORS)}, got "
                          f"{integrator!r}")
@@ -52,7 +53,7 @@ class GravitySim(KernelSim):
     def __init__(self, scene, dt, integrator):
         from .. import gravity_kernels as gk
         from .pivots import runtime_kernels
-        bodies, self.pairs = scene.particles, gravity_pairs_of(scene)
+        bodies, self.pairs = scene.part(Particles), scene.part(GravityPairs)
         made = runtime_kernels()
         if (self.system, integrator) not in made:
             made[(self.system, integrator)] = gk.gravity_kernels(integrator)

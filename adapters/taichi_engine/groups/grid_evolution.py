@@ -30,6 +30,7 @@ from refsim.engine import Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.first_order import get_first_order
 from refsim.models.grid_pde import GridPDE
+from refsim.scene import Grid
 
 from ..kernel_store import arrays_setting, to_taichi
 from ..sim import I32_MAX
@@ -59,7 +60,8 @@ SOLVER_SETTING = ("ti.linalg.SparseSolver(dtype=f64, solver_type='LU') (Eigen Sp
 
 
 def supports(engine, scene, integrator):
-    return scene_reason(scene, "taichi") or integrator_reason(scene.grids[0], integrator)
+    reason = scene_reason(scene, "taichi")
+    return reason or integrator_reason(scene.parts_of(Grid)[0], integrator)
 
 
 def kernel(key, make):

@@ -7,7 +7,7 @@ in-house group:
 - integrator "steady": one step() is one complete solve from the scene's initial guess;
 - observe: grid.u, grid.f, "residual" = ||f - L_h u||_2 / ||f||_2 over the free points (the
   true residual, recomputed after CG's recursive one has converged), "iterations".
-Formulations (engine variants): "cg", matrix-free conjugate gradient without preconditioner;
+Formulations: "cg", matrix-free conjugate gradient without preconditioner;
 "mgpcg", CG preconditioned by one geometric multigrid cycle (vertex-centred grids of 2^k + 1
 points a side; symmetric cycle: red-black Gauss-Seidel pre-sweeps red then black, post-sweeps
 black then red, or damped Jacobi; full weighting = P^T / 2^d; d-linear prolongation; the
@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from refsim.engine import EngineFailure, ModelGroup, Sim
+from refsim.scene import Grid
 
 INTEGRATORS = ("steady",)
 FORMULATIONS = ("cg", "mgpcg")
@@ -53,14 +54,15 @@ def level_shapes(shape, levels: int) -> list[tuple]:
 
 
 def claims(scene) -> bool:
-    return bool(scene.grids) and any(g.model == "poisson" for g in scene.grids)
+    return any(g.model == "poisson" for g in scene.parts_of(Grid))
 
 
 def scene_reason(scene) -> str | None:
     """Why the taichi Poisson group refuses a scene, None if it runs it."""
-    if len(scene.grids) != 1 or scene.part_kinds() != {"grids"}:
+    grids = scene.parts_of(Grid)
+    if len(grids) != 1 or scene.part_kinds() != {"grids"}:
         return "taichi Poisson: one grid alone per scene"
-    grid = scene.grids[0]
+    grid = grids[0]
     if len(grid.shape) not in (2, 3):
         return f"taichi Poisson: 2D or 3D grids (5-/7-point stencil), got {len(grid.shape)}D"
     if any(side != "dirichlet" for pair in grid.boundary for side in pair):
@@ -81,9 +83,10 @@ def supports(engine, scene, integrator):
     return reason
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     """cg always; mgpcg where the grid is 2^k + 1 points a side (multigrid_reason)."""
-    grid = scene.grids[0] if len(scene.grids) == 1 else None
+    grids = scene.parts_of(Grid)
+    grid = grids[0] if len(grids) == 1 else None
     if grid is None or multigrid_reason(grid.shape) is not None:
         return FORMULATIONS[:1]
     return FORMULATIONS
@@ -246,10 +249,10 @@ class PoissonSim(Sim):
                              "proportional to P^T, symmetric coarse solve (CG stays valid)"}
 
 
-def build(engine, scene, dt, integrator, variant):
-    return PoissonSim(scene.grids[0], variant or FORMULATIONS[0])
+def build(engine, scene, dt, integrator, formulation):
+    return PoissonSim(scene.parts_of(Grid)[0], formulation or FORMULATIONS[0])
 
 
 MODEL_GROUP = ModelGroup(name="grid_poisson", build=build, claims=claims,
                          parts=frozenset({"grids"}), features=frozenset({"grid", "poisson"}),
-                         supports=supports, variants=variants, integrators=INTEGRATORS)
+                         supports=supports, formulations=formulations, integrators=INTEGRATORS)

@@ -14,7 +14,8 @@ import numpy as np
 
 from refsim_adapters.common.particle_fields import supports_scene
 from refsim.engine import ModelGroup
-from refsim.scene.lennard_jones import lennard_jones_of
+from refsim.scene import Particles
+from refsim.scene.lennard_jones import LennardJones
 
 from ..kernel_store import arrays_setting, observed, to_ndarray, to_taichi
 from ..runtime import THREADS, effective_config
@@ -40,11 +41,12 @@ class LennardJonesSim(KernelSim):
         made = runtime()["kernels"]
         if (self.system, integrator) not in made:
             made[(self.system, integrator)] = lk.lj_kernels(integrator)
-        self.scene, self.part = scene, lennard_jones_of(scene)
-        self.masses = np.asarray(scene.masses, float)
+        self.scene, self.part = scene, scene.part(LennardJones)
+        particles = scene.part(Particles)
+        self.masses = np.asarray(particles.mass, float)
         n = len(self.masses)
-        self.x = to_ndarray(np.array(scene.positions, float))
-        self.v = to_ndarray(np.array(scene.velocities, float))
+        self.x = to_ndarray(np.array(particles.position, float))
+        self.v = to_ndarray(np.array(particles.velocity, float))
         self.pack = lk.lj_t(**self._parameters(lk.vec3), **self._arrays(n))
         super().__init__(dt, integrator, "", (self.x, self.v, self.pack))
 
@@ -102,7 +104,7 @@ def supports(engine, scene, integrator):
     return supports_scene(scene, "taichi")
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     return LennardJonesSim(scene, dt, integrator)
 
 

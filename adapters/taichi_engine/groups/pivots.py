@@ -4,8 +4,8 @@
 two agree to round-off at equal formulation and stepper). The state is (q, w) per body: the pivot holds
 the centre of mass on its sphere exactly (x = anchor + R c), no constraint force.
 
-Claims scenes of rigid bodies and a RigidPivots part, every body pivoted once. Formulations
-(engine variants): "quat_exp" and "quat_normalised" (rigid_kernels.rotate_by). Integrators:
+Claims scenes of rigid bodies and a RigidPivots part, every body pivoted once. Formulations:
+"quat_exp" and "quat_normalised" (rigid_kernels.rotate_by). Integrators:
 symplectic_euler, rk4 (RKMK4, rigid_kernels.rkmk4: the dexp^-1 / dcay^-1 stage correction,
 order 4 on the rotation group).
 
@@ -21,7 +21,8 @@ import numpy as np
 
 from refsim.engine import ModelGroup
 from refsim.models.rigid_pivot import pivot_inertia
-from refsim.scene.pivots import check_on_anchor, pivots_of
+from refsim.scene import RigidBodies
+from refsim.scene.pivots import RigidPivots, check_on_anchor
 
 from ..kernel_store import observed, to_ndarray, to_taichi
 from ..sim import KernelSim
@@ -46,8 +47,7 @@ NOT_SYMPLECTIC = ("w is stepped with the explicit gyroscopic term w x (I_p w) (n
 
 def claims(scene) -> bool:
     """Rigid bodies and a RigidPivots part, nothing else."""
-    return scene.rigid is not None and scene.part_kinds() == {"rigid", "rigid_pivots"} \
-        and scene.contact is None
+    return scene.part_kinds() == {"rigid", "rigid_pivots"} and scene.contact is None
 
 
 def supports(engine, scene, integrator):
@@ -56,22 +56,22 @@ def supports(engine, scene, integrator):
                 f"(got {integrator!r})")
     if scene.dim != 3:
         return "taichi pivoted bodies are 3D (quaternion orientation)"
-    pivots, n = pivots_of(scene), len(scene.rigid)
+    pivots, n = scene.part(RigidPivots), len(scene.part(RigidBodies))
     if len(pivots) != n or sorted(pivots.body.tolist()) != list(range(n)):
         return (f"taichi pivots need every rigid body pivoted once ({n} bodies, pivots on "
                 f"{sorted(pivots.body.tolist())})")
     return None
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     return FORMULATIONS
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in INTEGRATORS:
         raise ValueError(f"taichi pivot integrator must be one of {list(INTEGRATORS)}, got "
                          f"{integrator!r}")
-    return PivotSim(scene, dt, integrator, variant)
+    return PivotSim(scene, dt, integrator, formulation)
 
 
 class PivotSim(KernelSim):
@@ -83,7 +83,7 @@ class PivotSim(KernelSim):
     def __init__(self, scene, dt, integrator, formulation):
         from .. import pivot_kernels as pk
         from .. import rigid_kernels as rk
-        body, pivots = scene.rigid, pivots_of(scene)
+        body, pivots = scene.part(RigidBodies), scene.part(RigidPivots)
         check_on_anchor(pivots, body)
         order = np.argsort(pivots.body)  # every body pivoted once: sorted bodies = 0..n-1
         self.scene, self.body, self.formulation = scene, body, formulation
@@ -153,4 +153,4 @@ def runtime_kernels() -> dict:
 MODEL_GROUP = ModelGroup(name="pivots", build=build, claims=claims,
                          parts=frozenset({"rigid", "rigid_pivots"}),
                          features=frozenset({"rigid", "gravity", "pivots"}), supports=supports,
-                         variants=variants, integrators=INTEGRATORS)
+                         formulations=formulations, integrators=INTEGRATORS)

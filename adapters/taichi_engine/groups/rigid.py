@@ -4,7 +4,7 @@ issue 13 that refsim's numpy rigid model follows, and refsim's steppers: the two
 equal formulation and stepper).
 
 Claims scenes whose only part is `rigid` (RigidBodies; gravity allowed, nothing else).
-Formulations (engine variants): "quat_exp" (exponential-map update) and "quat_normalised"
+Formulations: "quat_exp" (exponential-map update) and "quat_normalised"
 (Euler quaternion update, then normalisation). Integrators: symplectic_euler, rk4 (RKMK4:
 classical RK4 with the stage slopes corrected by dexp^-1, or dcay^-1 under quat_normalised,
 order 4 on the rotation group, see rigid_kernels).
@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.engine import ModelGroup
+from refsim.scene import RigidBodies
 
 from ..kernel_store import observed, to_ndarray, to_taichi
 from ..runtime import runtime
@@ -51,7 +52,7 @@ STAGE_CORRECTION = {"quat_exp": "dexp^-1 of the exponential map (RKMK)",
 
 def claims(scene) -> bool:
     """A scene whose parts are rigid bodies only."""
-    return scene.rigid is not None and scene.part_kinds() == {"rigid"}
+    return scene.part_kinds() == {"rigid"}
 
 
 def supports(engine, scene, integrator):
@@ -61,15 +62,15 @@ def supports(engine, scene, integrator):
     return None
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     return FORMULATIONS
 
 
-def build(engine, scene, dt, integrator, variant):
+def build(engine, scene, dt, integrator, formulation):
     if integrator not in INTEGRATORS:
         raise ValueError(f"taichi rigid integrator must be one of {list(INTEGRATORS)}, got "
                          f"{integrator!r}")
-    return RigidSim(scene, dt, integrator, variant)  # the base checked variant in FORMULATIONS
+    return RigidSim(scene, dt, integrator, formulation)  # the base checked it in FORMULATIONS
 
 
 def rotation_matrices(q: np.ndarray) -> np.ndarray:
@@ -96,7 +97,7 @@ class RigidSim(KernelSim):
 
     def __init__(self, scene, dt, integrator, formulation):
         from .. import rigid_kernels as rk
-        body = self.body = scene.rigid
+        body = self.body = scene.part(RigidBodies)
         self.scene, self.formulation = scene, formulation
         made = runtime()["kernels"]
         if (self.system, integrator) not in made:  # runtime's cache, keyed as its own kernels
@@ -149,4 +150,4 @@ class RigidSim(KernelSim):
 
 MODEL_GROUP = ModelGroup(name="rigid", build=build, claims=claims, parts=frozenset({"rigid"}),
                          features=frozenset({"rigid", "gravity"}), supports=supports,
-                         variants=variants, integrators=INTEGRATORS)
+                         formulations=formulations, integrators=INTEGRATORS)

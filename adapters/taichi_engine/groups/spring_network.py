@@ -39,6 +39,7 @@ from refsim_adapters.common.spring_network import (
 from refsim.engine import EngineFailure, ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.models.spring_network import stretch_springs
+from refsim.scene import SpringNetwork
 
 from ..kernel_store import arrays_setting, to_taichi
 
@@ -61,7 +62,7 @@ def supports(engine, scene, integrator):
     reason = scene_reason(scene, "taichi") or integrator_reason(integrator)
     if reason:
         return reason
-    net = scene.networks[0]
+    net = scene.parts_of(SpringNetwork)[0]
     if (len(net.hinges) or len(net.dihedrals)) and integrator == "baraff_witkin":
         return ("taichi spring networks: baraff_witkin assembles the stretch springs' blocks "
                 "only (the hinge and dihedral Hessian blocks are not assembled on taichi); "
@@ -71,7 +72,7 @@ def supports(engine, scene, integrator):
     return None
 
 
-def variants(engine, scene):
+def formulations(engine, scene):
     return solve_formulations(scene)
 
 
@@ -135,7 +136,7 @@ class NetworkSim(Sim):
         from ..runtime import runtime
         self.nk, self.rt = nk, runtime()
         self.dt, self.integrator, self.variant, self.steps = float(dt), integrator, variant, 0
-        self.net = net = scene.networks[0]
+        self.net = net = scene.parts_of(SpringNetwork)[0]
         self.pack, self._arrays, self.free, self.n_springs = network_pack(
             net, scene.gravity, scene.linear_drag)
         self.x = np.ascontiguousarray(net.positions[self.free], dtype=np.float64)
@@ -303,11 +304,12 @@ def _stepper_kernels(nk, bending):
     return steppers(*bending)
 
 
-def build(engine, scene, dt, integrator, variant):
-    return NetworkSim(scene, dt, integrator, variant)
+def build(engine, scene, dt, integrator, formulation):
+    return NetworkSim(scene, dt, integrator, formulation)
 
 
 MODEL_GROUP = ModelGroup(name="spring_network", build=build, claims=claims,
                          parts=frozenset({"networks"}),
                          features=frozenset({"networks", "gravity", "drag"}),
-                         supports=supports, variants=variants, integrators=NETWORK_INTEGRATORS)
+                         supports=supports, formulations=formulations,
+                         integrators=NETWORK_INTEGRATORS)

@@ -22,7 +22,7 @@ from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
 from refsim.run.metrics import bisect_limit, convergence_order
 from refsim.run.job import Job, run_job
-from refsim.scene import Body, Joint, Scene, Spring
+from refsim.scene import Body, Joint, Joints, Particles, Scene, Spring, Springs
 
 SE, VV, RK4 = "symplectic_euler", "velocity_verlet", "rk4"
 TAICHI, REFSIM = get_engine("taichi"), get_engine("refsim")
@@ -39,7 +39,7 @@ def _lockstep(scene, dt, integrator, steps, chunks, ti_variant=""):
     """Max |x| and |v| differences, taichi vs refsim (same integrator; rods as refsim's
     `generalized` variant), observed every `steps` steps."""
     a = TAICHI.build(scene, dt, integrator, ti_variant)
-    b = REFSIM.build(scene, dt, integrator, "generalized" if scene.joints else "")
+    b = REFSIM.build(scene, dt, integrator, "generalized" if scene.part(Joints) is not None else "")
     dx = dv = 0.0
     for _ in range(chunks):
         a.step(steps)
@@ -98,11 +98,12 @@ def test_free_fall_is_the_exact_kick_drift_sequence():
 
 def test_two_d_scenes_agree_with_refsim():
     """2D (y-up): a spring along y, and a hinge about z with gravity -y."""
-    spring = Scene(bodies=(Body(1.0, (0.0, 1.1, 0.0)),), dim=2,
-                   springs=(Spring(body=0, stiffness=100.0, rest_length=1.0, damping=0.5),))
-    rod = Scene(bodies=(Body(2.0, (math.sin(1.0), -math.cos(1.0), 0.0)),), dim=2,
-                gravity=(0.0, -9.81, 0.0), linear_drag=0.1,
-                joints=(Joint(body=0, anchor=(0.0, 0.0, 0.0), length=1.0, axis=(0.0, 0.0, 1.0)),))
+    spring = Scene(parts=(Particles.of((Body(1.0, (0.0, 1.1, 0.0)),)), Springs.of(
+        (Spring(body=0, stiffness=100.0, rest_length=1.0, damping=0.5),))), dim=2)
+    rod = Scene(parts=(Particles.of((Body(2.0, (math.sin(1.0), -math.cos(1.0), 0.0)),)),
+                       Joints.of((Joint(body=0, anchor=(0.0, 0.0, 0.0), length=1.0,
+                                        axis=(0.0, 0.0, 1.0)),))),
+                dim=2, gravity=(0.0, -9.81, 0.0), linear_drag=0.1)
     for scene in (spring, rod):
         for integrator in (SE, VV, RK4):
             assert max(_lockstep(scene, 1e-3, integrator, 100, 5)) < 1e-12
@@ -258,14 +259,15 @@ def test_fresh_process_compiles_in_build_and_writes_nothing_in_cwd(tmp_path):
 
 # contract: refusals and bad input --------------------------------------------------------------
 def test_refusals_name_the_reason():
-    two = Scene(bodies=(Body(1.0, (0.0, 0.0, 0.0)), Body(1.0, (1.0, 0.0, 0.0))),
-                springs=(Spring(body=0, other=1, stiffness=10.0, rest_length=1.0),))
+    two = Scene(parts=(Particles.of((Body(1.0, (0.0, 0.0, 0.0)), Body(1.0, (1.0, 0.0, 0.0)))),
+                       Springs.of((Spring(body=0, other=1, stiffness=10.0, rest_length=1.0),))))
     assert "between two bodies" in TAICHI.supports(two, SE)
     c, p = _params("pendulum")
     assert TAICHI.supports(c.scene(p), "explicit_euler") == \
         "taichi offers no integrator 'explicit_euler'"
-    free = Scene(bodies=c.scene(p).bodies + (Body(1.0, (0.0, 0.0, 1.0)),),
-                 joints=c.scene(p).joints, gravity=(0.0, 0.0, -9.81))
+    pendulum = c.scene(p)
+    bodies = pendulum.part(Particles).to_records() + (Body(1.0, (0.0, 0.0, 1.0)),)
+    free = Scene(parts=(Particles.of(bodies), pendulum.part(Joints)), gravity=(0.0, 0.0, -9.81))
     assert "one rod per body" in TAICHI.supports(free, SE)
     with pytest.raises(ValueError, match="between two bodies"):
         TAICHI.build(two, 1e-3, SE)
@@ -280,9 +282,9 @@ def test_bad_input_raises_value_error():
         TAICHI.build(scene, float("nan"), SE)
     with pytest.raises(ValueError, match="integrator"):
         TAICHI.build(scene, 1e-3, "rk4:2")
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         TAICHI.build(scene, 1e-3, SE, "kkt")
-    assert TAICHI.variants(scene) == ("", "launch_per_step")
+    assert TAICHI.formulations(scene) == ("", "launch_per_step")
 
 
 def test_observe_shapes_and_constraint():

@@ -21,7 +21,7 @@ steps, against bounds of 6e-11 m and up), a rounding difference of some operatio
 import numpy as np
 import pytest
 
-from refsim_cases.networks import cloth_hang, hair_cantilever
+from refsim_cases.spring_network import cloth_hang, hair_cantilever
 from refsim import registry
 from refsim.run.job import Job, run_job
 from refsim.models.spring_network import NetworkSystem
@@ -50,7 +50,7 @@ def curly_scene(links=8, turn=0.2, rest=0.3):
                         stiffness=400.0, damping=0.05, hinges=np.c_[chain[:-2], chain[1:-1],
                                                                     chain[2:]],
                         hinge_stiffness=0.05, hinge_rest_angle=rest, pinned=[0, 1])
-    return Scene(networks=(net,), gravity=(0, 0, -9.81), linear_drag=0.01)
+    return Scene(parts=(net,), gravity=(0, 0, -9.81), linear_drag=0.01)
 
 
 def cloth_scene():
@@ -63,7 +63,7 @@ SCENES = {"hair": hair_scene, "curly": curly_scene, "cloth": cloth_scene}
 
 def omega_max(scene, states):
     """sqrt of the largest |eigenvalue| of refsim's da/dx over `states` (full x, v)."""
-    system = NetworkSystem(scene.networks[0], scene.gravity, scene.linear_drag)
+    system = NetworkSystem(scene.part(SpringNetwork), scene.gravity, scene.linear_drag)
     out = 0.0
     for x, v in states:
         ax, _ = system.jacobians(0.0, x[system.free].ravel(), v[system.free].ravel())
@@ -77,9 +77,9 @@ def roundings(net):
     return 4 * (64 + 128 * int(np.max(np.bincount(tuples))))
 
 
-def step_of(scene):
+def stable_step(scene):
     """dt = 0.5 / omega_max at the start (h omega <= 0.6 checked at the end too)."""
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     return 0.5 / omega_max(scene, [(net.positions, net.velocities)])
 
 
@@ -97,7 +97,7 @@ def run(engine, scene, dt, integrator):
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_explicit_steppers_match_refsim(name, integrator):
     scene = SCENES[name]()
-    net, dt = scene.networks[0], step_of(scene)
+    net, dt = scene.part(SpringNetwork), stable_step(scene)
     ours, theirs = run(TAICHI, scene, dt, integrator), run(REFSIM, scene, dt, integrator)
     omega = omega_max(scene, [(net.positions, net.velocities), (theirs["x"], theirs["v"])])
     assert omega * dt <= 0.6
@@ -110,12 +110,12 @@ def test_explicit_steppers_match_refsim(name, integrator):
 
 
 def unbent_run(scene, dt, integrator):
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     plain = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                           stiffness=net.stiffness, rest_length=net.rest_length,
                           damping=net.damping, pinned=net.pinned)
-    return run(REFSIM, Scene(networks=(plain,), gravity=scene.gravity,
-                             linear_drag=scene.linear_drag), dt, integrator)["x"]
+    return run(REFSIM, Scene(parts=(plain,), gravity=scene.gravity,
+                          linear_drag=scene.linear_drag), dt, integrator)["x"]
 
 
 @pytest.mark.parametrize("case, variant", [(hair_cantilever, "default"),
@@ -153,6 +153,6 @@ def test_network_without_bending_keeps_the_stretch_only_kernels():
     net = hair_cantilever.CASE.network(p)
     plain = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                           stiffness=net.stiffness, rest_length=net.rest_length, pinned=net.pinned)
-    sim = TAICHI.build(Scene(networks=(plain,), gravity=(0, 0, -9.81)), 1e-3, "rk4", "")
+    sim = TAICHI.build(Scene(parts=(plain,), gravity=(0, 0, -9.81)), 1e-3, "rk4", "")
     assert sim.stepper_kernels == (nk.start, nk.symplectic_euler, nk.velocity_verlet, nk.rk4)
     assert sim.settings()["model"]["terms"] == ["stretch"] and "bending" not in sim.settings()

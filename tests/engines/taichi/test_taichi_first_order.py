@@ -8,6 +8,7 @@ from refsim_cases.first_order_fields.sphere_sampling import CASE as SAMPLING
 from refsim import registry
 from refsim.integrators.first_order import get_first_order
 from refsim.models.advection import discrete_positions
+from refsim.scene.velocity_field import VelocityField
 
 pytest.importorskip("taichi")
 FIELD_STEPPERS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler")
@@ -21,7 +22,7 @@ def test_taichi_matches_the_exact_discrete_solution_and_refsim(case, integrator)
     round-off 2 k eps G S of the case's tolerance (G the largest growth, S the largest |p|)."""
     p = case.variant_params("default", {"particles": 20})
     scene, dt, k = case.scene(p), case.dts(p)[0], 40
-    field = scene.extra[0]
+    field = scene.part(VelocityField)
     runs = {}
     for name in ("taichi", "refsim"):
         sim = registry.get_engine(name).build(scene, dt, integrator)

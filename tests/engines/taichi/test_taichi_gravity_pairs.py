@@ -32,7 +32,7 @@ def test_softened_cluster_agrees_and_refuses_a_field():
     rng = np.random.default_rng(3)
     bodies = Particles(mass=rng.uniform(0.5, 1.5, 6), position=rng.normal(size=(6, 3)),
                        velocity=0.1 * rng.normal(size=(6, 3)))
-    scene = Scene(bodies=bodies, extra=(GravityPairs(G=2.0, softening=0.3),))
+    scene = Scene(parts=(bodies, GravityPairs(G=2.0, softening=0.3)))
     c = get_engine("taichi").build(scene, 0.01, "rk4")
     d = get_engine("refsim").build(scene, 0.01, "rk4")
     c.step(1)
@@ -41,5 +41,5 @@ def test_softened_cluster_agrees_and_refuses_a_field():
     # stage, negligible at h = 0.01) and in the rounding of the increments, eps |x| each of
     # the 4 stages' sums: 16 eps |x|, |x| <= 4 (standard normal positions)
     assert np.max(np.abs(c.observe()["x"] - d.observe()["x"])) <= 16 * np.finfo(float).eps * 4
-    field = Scene(bodies=bodies, extra=(GravityPairs(),), gravity=(0.0, 0.0, -1.0))
+    field = Scene(parts=(bodies, GravityPairs()), gravity=(0.0, 0.0, -1.0))
     assert "gravity" in get_engine("taichi").supports(field, "rk4")

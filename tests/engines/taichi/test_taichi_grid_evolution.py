@@ -36,11 +36,11 @@ def grid_scene(model, shape, boundary, fields, spacing=0.1, coefficient=None):
     name = "diffusivity" if model == "diffusion" else "wave_speed"
     grid = Grid(shape=shape, spacing=spacing, model=model, fields=fields, boundary=boundary,
                 coefficients={name: coefficient or (0.7 if model == "diffusion" else 1.3)})
-    return Scene(grids=(grid,), gravity=(0, 0, 0))
+    return Scene(parts=(grid,), gravity=(0, 0, 0))
 
 
 def rho(scene):
-    return GridLaplacian.of(scene.grids[0]).spectral_radius_bound()
+    return GridLaplacian.of(scene.part(Grid)).spectral_radius_bound()
 
 
 def stable_dt(model, scene):
@@ -48,7 +48,7 @@ def stable_dt(model, scene):
     the offered, midpoint/heun 2); wave: c dt sqrt(rho) <= 2 for leapfrog, 2.83 RK4): 0.4/(D rho)
     resp. 0.8/(c sqrt rho), inside every explicit scheme's interval (RK4's on the imaginary
     axis for the wave is wider than 0.8)."""
-    coef = scene.grids[0].coefficients
+    coef = scene.part(Grid).coefficients
     if model == "diffusion":
         return 0.4 / (coef["diffusivity"] * rho(scene))
     return 0.8 / (coef["wave_speed"] * np.sqrt(rho(scene)))
@@ -89,7 +89,7 @@ def test_wave_taichi_matches_refsim(integrator, boundary):
                            {"u": rng.uniform(-1, 1, shape), "v": rng.uniform(-1, 1, shape)})
         dt, chunks = stable_dt("wave", scene), (5, 8)
         a, b = (run(e, scene, dt, integrator, chunks) for e in (TAICHI, REFSIM))
-        k, c = sum(chunks), scene.grids[0].coefficients["wave_speed"]
+        k, c = sum(chunks), scene.part(Grid).coefficients["wave_speed"]
         assert np.max(np.abs(a["grid.u"] - b["grid.u"])) <= k * K * EPS * 1.0
         assert np.max(np.abs(a["grid.v"] - b["grid.v"])) <= \
             k * K * EPS * (1.0 + c * np.sqrt(rho(scene)))
@@ -159,12 +159,12 @@ def test_refusals_give_reasons():
     assert "offers no integrator" in TAICHI.supports(heat, "dopri5_adaptive")
     assert "must be one of" in TAICHI.supports(wave, "explicit_euler")
     assert "first order" in TAICHI.supports(heat, "stormer_verlet")
-    other = grid_scene("diffusion", shape, "dirichlet", {"w": np.zeros(shape)}).grids[0]
-    two = Scene(grids=(heat.grids[0], other), gravity=(0, 0, 0))
+    other = grid_scene("diffusion", shape, "dirichlet", {"w": np.zeros(shape)}).part(Grid)
+    two = Scene(parts=(heat.part(Grid), other), gravity=(0, 0, 0))
     assert "one grid per scene" in TAICHI.supports(two, "explicit_euler")
     bad = Grid(shape=shape, spacing=0.1, model="diffusion", fields={"u": np.zeros(shape)},
                coefficients={"diffusivity": -1.0})
-    assert "diffusivity" in TAICHI.supports(Scene(grids=(bad,), gravity=(0, 0, 0)), "rk4")
+    assert "diffusivity" in TAICHI.supports(Scene(parts=(bad,), gravity=(0, 0, 0)), "rk4")
     with pytest.raises(ValueError, match="first order"):
         TAICHI.build(heat, 0.01, "velocity_verlet", "")
 

@@ -70,14 +70,14 @@ def poisson_scene(f, boundary_values=None, rtol=RTOL):
         guess[inner] = 0.0
     grid = Grid(shape=f.shape, spacing=[1.0 / (m - 1) for m in f.shape], model="poisson", boundary="dirichlet",
                 fields={"u": guess, "f": f}, coefficients={"rtol": rtol})
-    return Scene(grids=(grid,), gravity=(0, 0, 0))
+    return Scene(parts=(grid,), gravity=(0, 0, 0))
 
 
 def solve(scene, variant, options=None):
     if options is None:
         sim = registry.get_engine("taichi").build(scene, 1.0, "steady", variant)
     else:
-        sim = PoissonSim(scene.grids[0], variant, options)
+        sim = PoissonSim(scene.part(Grid), variant, options)
     sim.step(1)
     assert sim.failure is None
     return sim, sim.observe()
@@ -149,7 +149,7 @@ def test_rectangular_grids_with_unequal_spacing(variant, shape):
 
 
 def sim_grid(f, exact):
-    return poisson_scene(f, boundary_values=exact).grids[0]
+    return poisson_scene(f, boundary_values=exact).part(Grid)
 
 
 OPTIONS = [MultigridOptions(smoother="jacobi"), MultigridOptions(cycle="W"),
@@ -215,7 +215,7 @@ def test_the_multigrid_preconditioner_is_symmetric_positive_definite(options, d,
     with ||M|| <= max ||M r|| / ||r|| over the samples (an estimate from below, hence the
     factor 2 on the count of passes, each counted once per level visit)."""
     f, _ = sine_problem(n, d)
-    sim = PoissonSim(poisson_scene(f).grids[0], "mgpcg", options)
+    sim = PoissonSim(poisson_scene(f).part(Grid), "mgpcg", options)
     opts = sim.options
     visits = opts.levels if opts.cycle == "V" else 2 ** opts.levels
     passes = visits * (4 * opts.sweeps + 4) + 4 * opts.coarse_sweeps * visits
@@ -268,18 +268,18 @@ def test_refusals_name_the_reason():
     assert engine.formulations(odd) == ("cg",)
     assert "2^k + 1" in multigrid_reason((20, 20))
     with pytest.raises(ValueError, match="2\\^k \\+ 1"):
-        PoissonSim(odd.grids[0], "mgpcg")
+        PoissonSim(odd.part(Grid), "mgpcg")
     assert "integrator" in engine.supports(odd, "rk4")
-    neumann = Scene(grids=(Grid((9, 9), 0.125, "poisson", {"u": np.zeros((9, 9)),
+    neumann = Scene(parts=(Grid((9, 9), 0.125, "poisson", {"u": np.zeros((9, 9)),
                                                           "f": np.ones((9, 9))},
                                 boundary="neumann", coefficients={"rtol": 1e-6}),),
                     gravity=(0, 0, 0))
     assert "Dirichlet" in engine.supports(neumann, "steady")
-    no_rtol = Scene(grids=(Grid((9, 9), 0.125, "poisson", {"u": np.zeros((9, 9)),
+    no_rtol = Scene(parts=(Grid((9, 9), 0.125, "poisson", {"u": np.zeros((9, 9)),
                                                           "f": np.ones((9, 9))}),),
                     gravity=(0, 0, 0))
     assert "rtol" in engine.supports(no_rtol, "steady")
-    line = Scene(grids=(Grid((9,), 0.125, "poisson", {"u": np.zeros(9), "f": np.ones(9)},
+    line = Scene(parts=(Grid((9,), 0.125, "poisson", {"u": np.zeros(9), "f": np.ones(9)},
                              coefficients={"rtol": 1e-6}),), gravity=(0, 0, 0))
     assert "2D or 3D" in engine.supports(line, "steady")
 

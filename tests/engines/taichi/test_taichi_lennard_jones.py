@@ -33,8 +33,8 @@ def _cloud(n, side, box, cutoff, seed):
     rng = np.random.default_rng(seed)
     x = grid[:n] * (side / per_axis) + rng.uniform(-0.05, 0.05, (n, 3))
     part = LennardJones(cutoff=cutoff, shift=True, box=box)
-    return Scene(bodies=Particles(mass=rng.uniform(1, 2, n), position=x,
-                                  velocity=rng.normal(0, 1, (n, 3))), extra=(part,))
+    return Scene(parts=(Particles(mass=rng.uniform(1, 2, n), position=x,
+                                  velocity=rng.normal(0, 1, (n, 3))), part))
 
 
 def _agree(scene, dt, integrator, steps, bound):

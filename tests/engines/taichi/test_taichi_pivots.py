@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from refsim_adapters.taichi_engine.runtime import import_taichi
-from refsim_cases.rigid import compound_pendulum
+from refsim_cases.pivots import compound_pendulum
 from refsim_cases.rigid.heavy_top import CASE, spin
 from refsim.observation import check_observation
 from refsim.registry import get_engine
@@ -58,7 +58,7 @@ def test_stepper_equals_refsim_to_round_off(integrator, dt, formulation):
     assert np.max(mine["pivot_gap"]) <= 4 * EPS * p["length"]  # x - R c - anchor: one rounding
     # observation.py counts "k" (pivot_gap's length) from scene.joint_set, not the pivots (0
     # here): pivot_gap's shape is checked by hand, the rest by the contract
-    assert mine["pivot_gap"].shape == (len(CASE.scene(p).rigid),)
+    assert mine["pivot_gap"].shape == (len(CASE.scene(p).part(RigidBodies)),)
     contract = {k: v for k, v in mine.items() if k != "pivot_gap"}
     assert check_observation(contract, CASE.scene(p)) == []
     assert sim.settings()["integrator"]["symplectic"] is False
@@ -123,8 +123,8 @@ def test_claims_supports_and_bad_input():
     assert TAICHI.group_for(scene).name == "pivots"
     assert TAICHI.formulations(scene) == ("quat_exp", "quat_normalised")
     assert "midpoint" in TAICHI.supports(scene, "midpoint")
-    free = Scene(rigid=RigidBodies(mass=[1.0], inertia=[np.eye(3)], position=[[0, 0, 1.0]],
-                                   orientation=[[1.0, 0, 0, 0]]))
+    free = Scene(parts=(RigidBodies(mass=[1.0], inertia=[np.eye(3)], position=[[0, 0, 1.0]],
+                                    orientation=[[1.0, 0, 0, 0]]),))
     assert TAICHI.group_for(free).name == "rigid"  # free bodies stay with the rigid group
     with pytest.raises(ValueError, match="formulation must be one of"):
         TAICHI.build(scene, 1e-2, "symplectic_euler", "matrix_printed")

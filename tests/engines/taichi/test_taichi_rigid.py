@@ -23,7 +23,7 @@ from refsim.run.job import Job, run_job
 from refsim.run.metrics import convergence_order
 from refsim.observation import check_observation
 from refsim.registry import get_engine
-from refsim.scene import Body, RigidBodies, Scene
+from refsim.scene import Body, Particles, RigidBodies, Scene
 
 SE, RK4, EXP, NORMALISED = "symplectic_euler", "rk4", "quat_exp", "quat_normalised"
 TAICHI, REFSIM = get_engine("taichi"), get_engine("refsim")
@@ -40,7 +40,7 @@ def top_scene(w_body=W_BODY_TOP, q0=Q_TILT, gravity=(0.0, 0.0, 0.0)):
     rigid = RigidBodies(mass=[2.0], inertia=[np.diag(I_TOP)], position=[[0.0, 0.0, 1.0]],
                         orientation=[q0], velocity=[[0.3, 0.0, 0.5]],
                         angular_velocity=[w_world])
-    return Scene(rigid=rigid, gravity=gravity)
+    return Scene(parts=(rigid,), gravity=gravity)
 
 
 def body_rates(obs):
@@ -125,7 +125,7 @@ def random_bodies(n, seed=13):
 
 def test_kernel_matches_numpy_restatement_over_1000_steps():
     bodies, g, h, steps = random_bodies(5), np.array([0.0, 0.0, -9.81]), 1e-3, 1000
-    sim = TAICHI.build(Scene(rigid=bodies, gravity=tuple(g)), h, SE, EXP)
+    sim = TAICHI.build(Scene(parts=(bodies,), gravity=tuple(g)), h, SE, EXP)
     sim.step(steps)
     obs = sim.observe()
     state = (bodies.position, bodies.velocity, bodies.orientation, bodies.angular_velocity)
@@ -160,7 +160,7 @@ def test_rk4_equals_refsim_rk4_on_dzhanibekov(formulation):
     # bound steps eps (1 + S rate t), 4.7e-12 here; measured 2e-14 (w) (printed)
     gain = 1.0 + period_sensitivity(p) * invariants(p)["rate"] * DZHANIBEKOV.t_end(p)
     unit = steps * EPS * gain
-    w0 = np.linalg.norm(scene.rigid.angular_velocity)
+    w0 = np.linalg.norm(scene.part(RigidBodies).angular_velocity)
     diff = {name: float(np.abs(mine[name] - theirs[name]).max())
             for name in ("x", "v", "q", "w", "orientation_defect")}
     print(f"{formulation}: steps {steps}, bound {unit:.3g}, max |taichi - refsim| {diff}, "
@@ -168,7 +168,7 @@ def test_rk4_equals_refsim_rk4_on_dzhanibekov(formulation):
     assert diff["w"] <= unit * w0 and diff["q"] <= unit and diff["orientation_defect"] <= unit
     # free flight: x, v by plain addition in both (x + h v exact in taichi's, refsim's sum of
     # the stage increments): eps of |x| per step
-    speed = np.linalg.norm(scene.rigid.velocity)
+    speed = np.linalg.norm(scene.part(RigidBodies).velocity)
     assert diff["v"] <= unit * speed and diff["x"] <= unit * speed * DZHANIBEKOV.t_end(p)
 
 
@@ -207,7 +207,7 @@ def test_normalised_defect_is_the_exact_discrete_drift():
     rigid = RigidBodies(mass=np.ones(3), inertia=np.repeat(np.diag(I_TOP)[None], 3, 0),
                         position=np.zeros((3, 3)), orientation=q0, angular_velocity=w_world)
     h, steps = 1e-2, 2000
-    obs = run(Scene(rigid=rigid), h, steps, SE, NORMALISED)
+    obs = run(Scene(parts=(rigid,)), h, steps, SE, NORMALISED)
     rate = np.sum(spins ** 2, axis=1)
     exact = np.expm1(steps * np.log1p(h * h * rate / 4))
     err = np.abs(obs["orientation_defect"] - exact)
@@ -261,10 +261,10 @@ def test_claims_only_rigid_scenes_and_refuses_other_steppers():
     assert TAICHI.formulations(scene) == (EXP, NORMALISED)
     assert TAICHI.supports(scene, SE) is None and TAICHI.supports(scene, RK4) is None
     assert "velocity_verlet" in TAICHI.supports(scene, "velocity_verlet")
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         TAICHI.build(scene, 1e-3, SE, "matrix_printed")
-    particles = Scene(bodies=(Body(mass=1.0, position=(0, 0, 0)),))
-    assert TAICHI.group_for(particles) is None
+    particles = Scene(parts=(Particles.of((Body(mass=1.0, position=(0, 0, 0)),)),))
+    assert TAICHI.group_for(particles).name == "particles"
 
 
 def test_settings_report_formulation_threads_and_compile_apart():
@@ -281,7 +281,7 @@ def test_settings_report_formulation_threads_and_compile_apart():
 @pytest.mark.slow
 def test_ten_thousand_bodies_speed_and_independence():
     bodies, steps = random_bodies(10_000, seed=7), 1000
-    sim = TAICHI.build(Scene(rigid=bodies, gravity=(0.0, 0.0, -9.81)), 1e-3, SE, EXP)
+    sim = TAICHI.build(Scene(parts=(bodies,), gravity=(0.0, 0.0, -9.81)), 1e-3, SE, EXP)
     t0 = time.perf_counter()
     sim.step(steps)
     elapsed = time.perf_counter() - t0
@@ -294,6 +294,6 @@ def test_ten_thousand_bodies_speed_and_independence():
                       position=bodies.position[k:k + 1], orientation=bodies.orientation[k:k + 1],
                       velocity=bodies.velocity[k:k + 1],
                       angular_velocity=bodies.angular_velocity[k:k + 1])
-    alone = run(Scene(rigid=one, gravity=(0.0, 0.0, -9.81)), 1e-3, steps, SE, EXP)
+    alone = run(Scene(parts=(one,), gravity=(0.0, 0.0, -9.81)), 1e-3, steps, SE, EXP)
     for name in ("x", "v", "q", "w"):
         assert np.array_equal(obs[name][k], alone[name][0]), name

@@ -14,6 +14,7 @@ import pytest
 from refsim.registry import get_engine
 from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
+from refsim.scene import FluidBlock
 from refsim_cases.sph.dam_break import clock_spread_rms
 from refsim.testing import accuracy
 
@@ -51,7 +52,7 @@ def test_agrees_with_refsim_numpy_engine_to_round_off(walls, pressure):
     The bounds are 10x the measured differences. The initial states are identical to the bit
     (the same construction functions)."""
     p, scene, dt = _scene(walls=walls, pressure=pressure)
-    assert scene.fluid.delta == 0.1  # the case's default: delta-SPH on
+    assert scene.part(FluidBlock).delta == 0.1  # the case's default: delta-SPH on
     a, b = TAICHI.build(scene, dt, VV), REFSIM.build(scene, dt, VV)
     for key in ("walls", "pressure", "delta_sph"):
         assert a.settings()[key] == b.settings()[key]
@@ -131,7 +132,7 @@ def test_refusals_and_non_finite_state():
     assert "velocity_verlet" in TAICHI.supports(scene, "rk4")
     with pytest.raises(ValueError, match="velocity_verlet"):
         TAICHI.build(scene, dt, "symplectic_euler")
-    assert TAICHI.supports(scene, VV) is None and TAICHI.variants(scene) == ("", "parallel")
+    assert TAICHI.supports(scene, VV) is None and TAICHI.formulations(scene) == ("", "parallel")
     # far past the acoustic CFL limit, without delta-SPH and with the pressure clamp: the
     # density goes negative and Tait's power makes nan within 40 steps (with delta-SPH the
     # particles fly apart to ~1e12 m instead, finite)

@@ -20,7 +20,7 @@ from sphere_cases import params
 
 from refsim.registry import get_engine
 from refsim_adapters.taichi_engine.runtime import import_taichi
-from refsim.scene import Body, ContactModel, Joint, Scene, Wall
+from refsim.scene import Body, ContactModel, Joint, Joints, Particles, Scene, Wall, Walls
 
 SE = "symplectic_euler"
 TAICHI = get_engine("taichi")
@@ -166,7 +166,8 @@ def test_runs_are_bit_identical_and_launch_per_step_agrees():
 
 # broad phase -----------------------------------------------------------------------------------
 def _contacts_found(x, r):
-    scene = Scene(bodies=tuple(Body(1.0, xi, radius=r, inertia=0.4 * r * r) for xi in x),
+    scene = Scene(parts=(Particles.of(tuple(Body(1.0, xi, radius=r, inertia=0.4 * r * r)
+                                            for xi in x)),),
                   contact=ContactModel(restitution=1.0))
     sim = TAICHI.build(scene, 1e-3, SE)
     sim.step(1)  # nothing moves; contacts are counted before projection
@@ -194,7 +195,8 @@ def test_contact_list_overflow_is_a_failure():
     """50 spheres piled within one radius make 1225 pairs, more than the 16 N + 64 = 864
     the list holds: the sim reports it instead of dropping contacts silently."""
     x = np.random.default_rng(0).uniform(0.0, 0.01, (50, 3))
-    scene = Scene(bodies=tuple(Body(1.0, xi, radius=0.1, inertia=0.004) for xi in x),
+    scene = Scene(parts=(Particles.of(tuple(Body(1.0, xi, radius=0.1, inertia=0.004)
+                                            for xi in x)),),
                   contact=ContactModel())
     sim = TAICHI.build(scene, 1e-3, SE)
     sim.step(1)
@@ -204,9 +206,9 @@ def test_contact_list_overflow_is_a_failure():
 def test_non_finite_positions_skip_contacts_and_are_reported():
     """A sphere overflowing to inf: no grid is built from it (no out-of-range cell index),
     the sim names the failure and the runner's check sees the non-finite state."""
-    scene = Scene(bodies=(Body(1.0, (0.0, 0.0, 0.0), (1e308, 0.0, 0.0), radius=0.1,
-                               inertia=0.004), Body(1.0, (1.0, 0.0, 0.0), radius=0.1,
-                                                    inertia=0.004)), contact=ContactModel())
+    scene = Scene(parts=(Particles.of((
+        Body(1.0, (0.0, 0.0, 0.0), (1e308, 0.0, 0.0), radius=0.1, inertia=0.004),
+        Body(1.0, (1.0, 0.0, 0.0), radius=0.1, inertia=0.004))),), contact=ContactModel())
     sim = TAICHI.build(scene, 1.0, SE)
     sim.step(3)
     assert sim.failure and "non-finite" in sim.failure
@@ -254,9 +256,9 @@ def test_wall_impact_with_spin_and_the_wall_impulse(mu):
     m, r, e = 2.0, 0.1, 0.7
     v0, w0 = np.array([1.0, 0.5, -2.0]), np.array([3.0, -10.0, 1.0])
     n = np.array([0.0, 0.0, 1.0])
-    scene = Scene(bodies=(Body(m, (0.0, 0.0, 0.5), v0, radius=r, inertia=0.4 * m * r * r,
-                               angular_velocity=w0),),
-                  walls=(Wall((0.0, 0.0, 0.0), n),), contact=ContactModel(e, mu))
+    scene = Scene(parts=(Particles.of((Body(m, (0.0, 0.0, 0.5), v0, radius=r,
+                                            inertia=0.4 * m * r * r, angular_velocity=w0),)),
+                         Walls.of((Wall((0.0, 0.0, 0.0), n),))), contact=ContactModel(e, mu))
     sim = TAICHI.build(scene, 7e-4, SE)
     sim.step(400)
     o = sim.observe()
@@ -271,9 +273,10 @@ def test_gravity_is_honoured_and_balances_with_the_wall_impulse():
     sequence z_k = z0 - k(k+1)/2 dt^2 g until the bounce, and at every sample
     m (v - v0) = J_walls + m g t to round-off."""
     m, r, g, dt = 1.5, 0.1, 9.81, 1e-3
-    scene = Scene(bodies=(Body(m, (0.0, 0.0, 1.0), radius=r, inertia=0.4 * m * r * r),),
-                  gravity=(0.0, 0.0, -g), walls=(Wall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),),
-                  contact=ContactModel(restitution=0.8))
+    scene = Scene(parts=(Particles.of((Body(m, (0.0, 0.0, 1.0), radius=r,
+                                            inertia=0.4 * m * r * r),)),
+                         Walls.of((Wall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),))),
+                  gravity=(0.0, 0.0, -g), contact=ContactModel(restitution=0.8))
     sim = TAICHI.build(scene, dt, SE)
     sim.step(100)
     assert sim.observe()["x"][0, 2] == pytest.approx(1.0 - 100 * 101 / 2 * dt * dt * g,
@@ -301,7 +304,7 @@ def test_settings_report_contact_model_and_restitution_mapping():
     assert s["default_fp"] == "f64" and "serialize=True" in s["time_loop"]
     assert s["step_order"].startswith("kick")
     c, p = params("head_on")
-    assert TAICHI.variants(c.scene(p)) == ("", "launch_per_step", "overlap_normal")
+    assert TAICHI.formulations(c.scene(p)) == ("", "launch_per_step", "overlap_normal")
 
 
 def test_observe_gives_per_sphere_shapes_and_the_initial_spin():
@@ -316,17 +319,17 @@ def test_refusals_name_the_reason():
     assert "symplectic_euler only" in TAICHI.supports(scene, "rk4")
     with pytest.raises(ValueError, match="symplectic_euler only"):
         TAICHI.build(scene, 1e-3, "velocity_verlet")
-    point = Scene(bodies=(Body(1.0, (0.0, 0.0, 0.0)),), contact=ContactModel())
+    point = Scene(parts=(Particles.of((Body(1.0, (0.0, 0.0, 0.0)),)),), contact=ContactModel())
     assert "radius > 0" in TAICHI.supports(point, SE)
-    spinless = Scene(bodies=(Body(1.0, (0.0, 0.0, 0.0), radius=0.1),),
+    spinless = Scene(parts=(Particles.of((Body(1.0, (0.0, 0.0, 0.0), radius=0.1),)),),
                      contact=ContactModel(friction=0.5))
     assert "moment of inertia" in TAICHI.supports(spinless, SE)
-    assert TAICHI.supports(Scene(bodies=spinless.bodies, contact=ContactModel()), SE) is None
-    bare_walls = Scene(bodies=(Body(1.0, (0.0, 0.0, 1.0), radius=0.1),),
-                       walls=(Wall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),))
+    assert TAICHI.supports(Scene(parts=spinless.parts, contact=ContactModel()), SE) is None
+    bare_walls = Scene(parts=(Particles.of((Body(1.0, (0.0, 0.0, 1.0), radius=0.1),)),
+                              Walls.of((Wall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),))))
     assert "contact model" in TAICHI.supports(bare_walls, SE)
-    hinged = Scene(bodies=(Body(1.0, (0.0, 0.0, -1.0), radius=0.1, inertia=0.004),),
-                   joints=(Joint(0, (0.0, 0.0, 0.0), 1.0),), contact=ContactModel())
+    hinged = Scene(parts=(Particles.of((Body(1.0, (0.0, 0.0, -1.0), radius=0.1, inertia=0.004),)),
+                          Joints.of((Joint(0, (0.0, 0.0, 0.0), 1.0),))), contact=ContactModel())
     assert "hinged" in TAICHI.supports(hinged, SE)
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         TAICHI.build(scene, 1e-3, SE, "kkt")

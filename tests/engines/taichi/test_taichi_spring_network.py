@@ -43,7 +43,7 @@ def string_scene(free=12, tension_k=50.0, mass=0.01, amplitude=0.01):
     edges = np.c_[np.arange(free + 1), np.arange(1, free + 2)]
     net = SpringNetwork(positions=x, masses=mass, edges=edges, stiffness=tension_k,
                         rest_length=0.0, pinned=[0, free + 1])
-    return Scene(networks=(net,), gravity=(0, 0, 0))
+    return Scene(parts=(net,), gravity=(0, 0, 0))
 
 
 def chain_scene(links=10):
@@ -54,7 +54,7 @@ def chain_scene(links=10):
     edges = np.c_[np.arange(links), np.arange(1, links + 1)]
     net = SpringNetwork(positions=x, masses=0.1, edges=edges, stiffness=200.0,
                         rest_length=0.1, damping=0.5, pinned=[0, links])
-    return Scene(networks=(net,), gravity=(0, 0, -9.81), linear_drag=0.05)
+    return Scene(parts=(net,), gravity=(0, 0, -9.81), linear_drag=0.05)
 
 
 def cloth_scene(side=6):
@@ -69,7 +69,7 @@ def cloth_scene(side=6):
                        np.c_[idx[:-1, 1:].ravel(), idx[1:, :-1].ravel()]])
     net = SpringNetwork(positions=x, masses=0.01, edges=edges, stiffness=100.0, damping=0.02,
                         pinned=[0, side - 1])
-    return Scene(networks=(net,), gravity=(0, 0, -9.81), linear_drag=0.01)
+    return Scene(parts=(net,), gravity=(0, 0, -9.81), linear_drag=0.01)
 
 
 SCENES = {"string": string_scene, "chain": chain_scene, "cloth": cloth_scene}
@@ -77,7 +77,7 @@ SCENES = {"string": string_scene, "chain": chain_scene, "cloth": cloth_scene}
 
 def omega_max(scene):
     """Gershgorin bound of sqrt(|M^-1 K|): max_i sqrt(sum_s 2 k_s / m_i)."""
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     per_node = np.zeros(len(net))
     np.add.at(per_node, net.edges.ravel(), np.repeat(2.0 * net.stiffness, 2))
     return float(np.sqrt(np.max(per_node / net.masses)))
@@ -85,7 +85,7 @@ def omega_max(scene):
 
 def bw_condition(scene, states):
     """cond_2(M - h D - h^2 K) from refsim's Jacobians, the largest over `states` (x, v)."""
-    system = NetworkSystem(scene.networks[0], scene.gravity, scene.linear_drag)
+    system = NetworkSystem(scene.part(SpringNetwork), scene.gravity, scene.linear_drag)
     m = np.repeat(system.masses, 3)
     conds = []
     for x, v in states:
@@ -123,14 +123,14 @@ def test_explicit_steppers_match_refsim(name, integrator):
     bx, bv = bounds(scene, theirs, 1.0)
     assert np.max(np.abs(ours["x"] - theirs["x"])) <= bx
     assert np.max(np.abs(ours["v"] - theirs["v"])) <= bv
-    assert np.max(np.abs(theirs["x"] - SCENES[name]().networks[0].positions)) > 1e3 * bx
+    assert np.max(np.abs(theirs["x"] - SCENES[name]().part(SpringNetwork).positions)) > 1e3 * bx
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_baraff_witkin_direct_matches_refsim(name):
     scene = SCENES[name]()
     ours, theirs = run_pair(scene, "baraff_witkin", "")
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     cond = bw_condition(scene, [(net.positions, net.velocities), (theirs["x"], theirs["v"])])
     bx, bv = bounds(scene, theirs, cond)
     assert np.max(np.abs(ours["x"] - theirs["x"])) <= bx
@@ -148,7 +148,7 @@ def test_baraff_witkin_cg_matches_refsim_cg():
         sim.step(1)
         v = sim.observe()["v"]
         dv_max, v_prev = max(dv_max, np.max(np.abs(v - v_prev))), v
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     cond = bw_condition(scene, [(net.positions, net.velocities), (theirs["x"], theirs["v"])])
     per_step = 2 * 1e-10 * cond * np.sqrt(3 * (len(net) - 2)) * dv_max
     bx, bv = bounds(scene, theirs, cond)
@@ -173,7 +173,7 @@ def test_string_mode_is_exact_under_baraff_witkin():
     bx, bv = bounds(scene, obs, cond)
     assert np.max(np.abs(obs["x"][1:-1, 2] - amp[0] * shape)) <= bx
     assert np.max(np.abs(obs["v"][1:-1, 2] - amp[1] * shape)) <= bv
-    assert np.max(np.abs(obs["x"][:, :2] - scene.networks[0].positions[:, :2])) <= bx
+    assert np.max(np.abs(obs["x"][:, :2] - scene.part(SpringNetwork).positions[:, :2])) <= bx
     assert 1 - np.hypot(amp[0], amp[1] / np.sqrt(w2)) > 1e6 * bx  # the damping is visible
 
 
@@ -182,7 +182,7 @@ def test_pinned_nodes_stay_and_observation_has_every_node():
     sim = TAICHI.build(scene, DT, "symplectic_euler", "")
     sim.step(20)
     obs = sim.observe()
-    net = scene.networks[0]
+    net = scene.part(SpringNetwork)
     assert obs["x"].shape == obs["v"].shape == (len(net), 3)
     assert np.array_equal(obs["x"][net.pinned], net.positions[net.pinned])
     assert not obs["v"][net.pinned].any()
@@ -192,16 +192,16 @@ def test_refusals_and_formulations():
     chain = chain_scene()
     assert TAICHI.offered_integrators(chain) == NETWORK_INTEGRATORS
     assert TAICHI.formulations(chain) == ("",)  # 27 entries: refsim solves densely, no "cg"
-    net = chain.networks[0]
+    net = chain.part(SpringNetwork)
     bent = SpringNetwork(positions=net.positions, masses=net.masses, edges=net.edges,
                          stiffness=net.stiffness, hinges=[[0, 1, 2]], hinge_stiffness=1.0,
                          pinned=net.pinned)
-    bent_scene = Scene(networks=(bent,), gravity=(0, 0, -9.81))
+    bent_scene = Scene(parts=(bent,), gravity=(0, 0, -9.81))
     reason = TAICHI.supports(bent_scene, "baraff_witkin")  # bending: explicit steppers only
     assert reason is not None and "hinge" in reason
     assert TAICHI.supports(bent_scene, "rk4") is None
     assert "integrator" in TAICHI.supports(chain, "leapfrog")
-    with pytest.raises(ValueError, match="variant"):
+    with pytest.raises(ValueError, match="formulation"):
         TAICHI.build(chain, DT, "baraff_witkin", "cg")
 
 

@@ -1,26 +1,76 @@
-"""2D weakly compressible SPH (feature "fluid"; velocity_verlet only): refsim's model
-(`refsim.models.sph`: Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH density
-diffusion, Adami 2012 wall particles, negative pressures clamped to 0 or kept) and refsim's
-kick-drift-kick step with the trapezoid density drift, as taichi kernels (sph_physics,
+"""taichi's sph group: 2D weakly compressible SPH (feature "fluid"; velocity_verlet only),
+refsim's model (`refsim.models.sph`: Wendland C2, Tait gamma 7, Monaghan viscosity, delta-SPH
+density diffusion, Adami 2012 wall particles, negative pressures clamped to 0 or kept) and
+refsim's kick-drift-kick step with the trapezoid density drift, as taichi kernels (sph_physics,
 sph_kernels). Particles, wall particles and initial densities come from the functions the
-in-house engine uses too (`refsim_adapters.common.sph_lattice`), so both engines start from the same
-bits. Engine variant "parallel": one launch per step of a kernel whose stages are
-multi-threaded loops (gathers, no atomics: the same bits)."""
+in-house engine uses too (`refsim_adapters.common.sph_lattice`), so both engines start from the
+same bits.
+
+Claims scenes holding a fluid block (FluidBlock). Formulations: "" (the serial kernel, its time
+loop inside one launch) and "parallel" (one launch per step of a kernel whose stages are
+multi-threaded loops: gathers, no atomics, the same bits). On one thread `parallel` is the
+serial kernel's arithmetic: the engine leaves it out of `refsim run`'s matrix then
+(TaichiEngine.matrix_formulations). Refused, with the reason: contacts (or bodies, springs,
+joints) beside the fluid; linear drag; any stepper but velocity_verlet.
+"""
 from __future__ import annotations
 
 import time
 
 import numpy as np
 
-from ..common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
-                                  plane_gravity, wall_particles)
-from .kernel_store import EXTERNAL_LAUNCH_COST, observed, to_ndarray, to_taichi
-from .runtime import THREADS, runtime
-from .sim import KernelSim
+from refsim.engine import ModelGroup
+from refsim.scene import FluidBlock
 
+from ...common.checks import linear_drag
+from ...common.sph_lattice import (WALL_LAYERS, fluid_particles, hydrostatic_densities,
+                                   plane_gravity, wall_particles)
+from ..engine import WHO
+from ..kernel_store import EXTERNAL_LAUNCH_COST, observed, to_ndarray, to_taichi
+from ..runtime import THREADS, runtime
+from ..sim import INTEGRATORS, KernelSim, checked_integrator
+
+# the parts and features the engine's checks let through to the sentences below: drag and
+# contacts are refused there with the reason; a Walls part beside the fluid passes, as it did
+# before this group, and is not modelled (the tank's walls are the fluid's own)
+PARTS = frozenset({"fluid", "walls"})
+FEATURES = frozenset({"fluid", "walls", "gravity", "drag", "contacts"})
+# No launch_per_step. One launch (~30 us, docs/engine_notes.md#taichi-kernel-launch-cost) is
+# under 1 % of a WCSPH step (~3 ms at res20 on one thread): the formulation cannot show its
+# point there, and its two reference-dt rows cost 27 s of the default run's work. The serial
+# kernel and `parallel`.
+FORMULATIONS = ("", "parallel")
 SPH_CELLS_PER_PARTICLE = 4  # SPH grid array size 4 N + 64 (the cell grows past 2h to fit)
 SPH_STATS = ("steps_without_grid", "steps")  # the kernels' counters, in `stats` order
 HOST_SPH_ARRAYS = ("rho", "stats")  # read by Python: numpy (the rest: taichi ndarrays)
+
+
+def claims(scene) -> bool:
+    """A scene holding a fluid block."""
+    return scene.part(FluidBlock) is not None
+
+
+def supports(engine, scene, integrator):
+    """Why a fluid scene cannot be simulated faithfully here, or None."""
+    if scene.contact is not None:  # (a scene holds no bodies beside a fluid: one moving kind)
+        return ("taichi adapter: a fluid scene holds the fluid and its tank only (bodies, "
+                "springs, joints or contacts with SPH are not modelled)")
+    reason = linear_drag(scene, WHO, "SPH particles")
+    if reason:
+        return reason
+    if integrator is not None and integrator != "velocity_verlet":
+        return ("taichi adapter: fluid scenes step with kick-drift-kick SPH "
+                "('velocity_verlet'), as refsim's")
+    return None
+
+
+def formulations(engine, scene):
+    return FORMULATIONS
+
+
+def build(engine, scene, dt, integrator, formulation):
+    checked_integrator(integrator)
+    return FluidSim(scene.part(FluidBlock), plane_gravity(scene), dt, integrator, formulation)
 
 
 class FluidSim(KernelSim):
@@ -30,10 +80,9 @@ class FluidSim(KernelSim):
     system = "sph"
     host_arrays = ("x", "v") + HOST_SPH_ARRAYS
 
-    def __init__(self, scene, dt, integrator, variant):
-        from .sph_kernels import sph_t, vec2
-        fluid = self.fluid = scene.fluid
-        self.gravity = plane_gravity(scene)
+    def __init__(self, fluid, gravity, dt, integrator, formulation):
+        from ..sph_kernels import sph_t, vec2
+        self.fluid, self.gravity = fluid, gravity
         x, walls = fluid_particles(fluid), wall_particles(fluid)
         rho = hydrostatic_densities(fluid, x, self.gravity)
         self.n_fluid, self.n_wall, self.wall_layers = len(x), len(walls), WALL_LAYERS
@@ -49,8 +98,8 @@ class FluidSim(KernelSim):
                      rho0=fluid.density, c0=fluid.sound_speed,
                      alpha=fluid.viscosity_alpha, delta=fluid.delta,
                      gravity=vec2(*self.gravity), cell_min=self.cell_min(self.h), **self.nd)
-        super().__init__(dt, integrator, variant, (self.x, self.v, pack))
-        if variant == "parallel":
+        super().__init__(dt, integrator, formulation, (self.x, self.v, pack))
+        if formulation == "parallel":
             self._compile_parallel()
 
     def _arrays(self, rho) -> dict:
@@ -67,11 +116,11 @@ class FluidSim(KernelSim):
                 "stats": np.zeros(len(SPH_STATS), np.int64)}
 
     def _compile_parallel(self):
-        """The `parallel` variant: one launch per step of a kernel whose stages are top-level
+        """The `parallel` formulation: one launch per step of a kernel whose stages are top-level
         (multi-threaded) loops. Its first launch compiles; it is made here with dt = 0, a
         no-op on the state (v, x, rho unchanged; a and the grid recomputed from the same
         state by the same functions, so the same bits), and timed into compile_s."""
-        from .sph_kernels import advance_sph_parallel, step_sph_parallel
+        from ..sph_kernels import advance_sph_parallel, step_sph_parallel
         rt = runtime()
         key = ("sph", "parallel")
         t0 = time.perf_counter()
@@ -156,3 +205,7 @@ class FluidSim(KernelSim):
                 **self._thread_settings(base),
                 "stages": ["gravity", "neighbours", "sph_rates", "walls_adami",
                            "integrate:kick-drift-kick"]}
+
+
+MODEL_GROUP = ModelGroup(name="sph", build=build, claims=claims, parts=PARTS, features=FEATURES,
+                         supports=supports, formulations=formulations, integrators=INTEGRATORS)
