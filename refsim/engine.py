@@ -188,7 +188,6 @@ class ModelGroup:
     features: frozenset = frozenset()
     supports: Callable | None = None
     formulations: Callable | None = None
-    variants: Callable | None = None  # TRANSITION: the earlier name of `formulations`
     integrators: tuple | None = None
     module: str = field(default="", compare=False)
 
@@ -271,10 +270,9 @@ class Engine:
 
     def supports(self, scene, integrator: str | None = None) -> str | None:
         group = self.group_for(scene)
-        if group is None and not self._legacy():
+        if group is None:
             return self.refusal(scene)
-        parts = group.parts if group is not None else self.parts
-        features = group.features if group is not None else self.capabilities
+        parts, features = group.parts, group.features
         if parts is not None:
             missing = sorted(scene.part_kinds() - set(parts))
             if missing:
@@ -287,18 +285,15 @@ class Engine:
         offered = self.offered_integrators(scene)
         if integrator is not None and spec_name(integrator) not in offered:
             return f"{self.name} offers no integrator {integrator!r}"
-        if group is not None:
-            return group.supports(self, scene, integrator) if group.supports else None
-        return self._supports(scene, integrator)
+        return group.supports(self, scene, integrator) if group.supports else None
 
     def formulations(self, scene) -> tuple[str, ...]:
         """The scene's formulations (named alternatives of the same model; "" the default):
         its model group's."""
         group = self.group_for(scene)
-        if group is not None:
-            forms = group.formulations or group.variants
-            return forms(self, scene) if forms else ("",)
-        return self.variants(scene) if self._legacy() else ("",)
+        if group is None or group.formulations is None:
+            return ("",)
+        return group.formulations(self, scene)
 
     def matrix_formulations(self, scene) -> tuple[str, ...]:
         """The formulations `refsim run` puts in its matrix: all of them (`formulations`),
@@ -315,23 +310,4 @@ class Engine:
         reason = self.supports(scene, integrator)
         if reason is not None:
             raise ValueError(reason)
-        group = self.group_for(scene)
-        if group is not None:
-            return group.build(self, scene, dt, integrator, formulation)
-        return self._build(scene, dt, integrator, formulation)
-
-    # -- TRANSITION (issue 24, item 1): engines not yet wholly in model groups ---------------
-    parts: frozenset | None = None
-    capabilities: frozenset = frozenset()
-
-    def _legacy(self) -> bool:
-        return type(self)._build is not Engine._build
-
-    def _supports(self, scene, integrator: str | None) -> str | None:
-        return None
-
-    def variants(self, scene) -> tuple[str, ...]:
-        return ("",)
-
-    def _build(self, scene, dt: float, integrator: str, variant: str) -> Sim:
-        raise NotImplementedError
+        return self.group_for(scene).build(self, scene, dt, integrator, formulation)

@@ -87,16 +87,6 @@ def grid_refusal_sentence(engine: str, what: str) -> str:
             "Poisson grids run on refsim and taichi")
 
 
-def grid_refusal(engine: str, what: str):
-    """A group for an engine without a grid/PDE solver: it claims every grid scene (heat, wave,
-    Poisson) only to refuse it with the reason (adapters/common/refusing_group.py)."""
-    from refsim_adapters.common.refusing_group import refusing_group
-    return refusing_group(
-        f"{engine} has no finite-difference grid solver ({what}); the heat, wave and Poisson "
-        "grids run on refsim and taichi", name="grid_refused",
-        claims=lambda scene: bool(scene.parts_of(Grid)))
-
-
 def evolution_group(heat_sim, wave_sim, supports):
     """The heat-and-wave MODEL_GROUP of an engine: `heat_sim(grid, dt, integrator)` for
     diffusion grids, `wave_sim(...)` for wave grids (refsim and taichi declare the same)."""

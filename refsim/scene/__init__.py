@@ -21,7 +21,6 @@ from .rigid import RigidBodies
 from .scene import MOVING_KINDS, PART_KINDS, Scene
 from .springs import Spring, Springs
 from .walls import ContactModel, Wall, Walls
-from . import _legacy  # noqa: F401  (transition: the Scene's earlier keywords)
 
 __all__ = ["BOUNDARY_KINDS", "Body", "ContactModel", "FluidBlock", "Grid", "JOINT_KINDS",
            "Joint", "Joints", "MOVING_KINDS", "Material", "PART_KINDS", "Particles",

@@ -83,8 +83,3 @@ class Emitter(ArrayPart):
         u = spawn_uniforms(self.seed, ids)
         x0 = np.broadcast_to(np.asarray(self.origin, float), u.shape).copy()
         return x0, np.asarray(self.velocity, float) + self.spread * (2.0 * u - 1.0)
-
-
-def emitter_of(scene) -> Emitter | None:
-    """The scene's Emitter part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, Emitter)), None)

@@ -56,8 +56,3 @@ class Flocking(ArrayPart):
 
     def features(self) -> set[str]:
         return {"flocking"}
-
-
-def flocking_of(scene) -> Flocking | None:
-    """The scene's Flocking part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, Flocking)), None)

@@ -35,8 +35,3 @@ class GravityPairs(ArrayPart):
 
     def features(self) -> set[str]:
         return {"gravity_pairs"}
-
-
-def gravity_pairs_of(scene) -> GravityPairs | None:
-    """The scene's GravityPairs part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, GravityPairs)), None)

@@ -83,8 +83,3 @@ class LennardJones(ArrayPart):
     @property
     def periodic(self) -> bool:
         return self.box is not None
-
-
-def lennard_jones_of(scene) -> LennardJones | None:
-    """The scene's LennardJones part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, LennardJones)), None)

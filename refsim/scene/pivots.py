@@ -50,11 +50,6 @@ class RigidPivots(ArrayPart):
         return {"pivots"}
 
 
-def pivots_of(scene) -> RigidPivots | None:
-    """The scene's RigidPivots part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, RigidPivots)), None)
-
-
 def check_on_anchor(pivots: RigidPivots, rigid) -> None:
     """Every pivot's body index exists and its body point sits on its anchor at t = 0."""
     n = len(rigid)

@@ -83,11 +83,6 @@ class RigidShapes(ArrayPart):
         return {"shapes"}
 
 
-def shapes_of(scene) -> RigidShapes | None:
-    """TRANSITION (removed with refsim/scene/_legacy.py): scene.part(RigidShapes)."""
-    return scene.part(RigidShapes)
-
-
 def check_shape_bodies(shapes: RigidShapes, rigid) -> None:
     """Every shape's body index names one of the scene's rigid bodies."""
     n = len(rigid)

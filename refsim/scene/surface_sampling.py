@@ -38,9 +38,3 @@ class SurfaceSampling(ArrayPart):
 
     def features(self) -> set[str]:
         return {"first_order", "surface_sampling"}
-
-
-def surface_sampling_of(scene) -> SurfaceSampling | None:
-    """The scene's SurfaceSampling part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, SurfaceSampling)),
-                None)

@@ -58,8 +58,3 @@ class VelocityField(ArrayPart):
             return -np.diag(self.rates)
         wx, wy, wz = self.omega
         return np.array([[0.0, -wz, wy], [wz, 0.0, -wx], [-wy, wx, 0.0]])
-
-
-def velocity_field_of(scene) -> VelocityField | None:
-    """The scene's VelocityField part, None when it has none."""
-    return next((p for p in getattr(scene, "extra", ()) if isinstance(p, VelocityField)), None)

@@ -29,6 +29,8 @@ from typing import Callable
 
 import numpy as np
 
+from refsim.scene import Particles
+
 from refsim.stress.search import ENERGY_FACTOR, theory as oscillator_theory
 
 
@@ -114,8 +116,10 @@ class Probe:
         self.scene = self.case.scene(self.p)
         self.omega = 1.0 / self.spec.dt_unit  # y per second of step (omega for an oscillator)
         self.e0 = self.case.energy_scale(self.p)
-        self.x0 = np.asarray(getattr(self.scene, "positions", np.zeros(0))).reshape(-1)
-        self.v0 = np.asarray(getattr(self.scene, "velocities", np.zeros(0))).reshape(-1)
+        # the particles' start (the batched oscillator's); empty for a scene of other parts
+        bodies = self.scene.part(Particles)
+        self.x0 = np.zeros(0) if bodies is None else bodies.position.reshape(-1)
+        self.v0 = np.zeros(0) if bodies is None else bodies.velocity.reshape(-1)
 
     def energy(self, x, v):
         """Energy of each row of x, v (batch, 3): one-body scenes (the batched search)."""

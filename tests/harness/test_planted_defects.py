@@ -19,7 +19,8 @@ from refsim_adapters.planted_defects.engines import (
 from refsim.integrators import EULER, HEUN, ExplicitRK
 from refsim.run.job import Job, run_job
 from refsim.registry import get_case, get_engine, unregister
-from refsim.scene import RigidBodies
+from refsim.scene import Joints, RigidBodies, SpringNetwork, Springs
+from refsim.scene.gravity_pairs import GravityPairs
 from refsim.scene.pivots import RigidPivots, check_on_anchor
 
 
@@ -87,22 +88,27 @@ def test_scene_defects_change_one_field():
     assert DEFECTS["gravity_plus_0.1pct"].scene(scene).gravity == tuple(
         1.001 * g for g in scene.gravity)
     kepler = DEFECTS["gravity_plus_0.1pct"].scene(_scene("kepler", "e0.5"))
-    assert kepler.extra[0].G == 1.001 * _scene("kepler", "e0.5").extra[0].G
+    assert kepler.part(GravityPairs).G == 1.001 * _scene("kepler", "e0.5").part(GravityPairs).G
     spring = _scene("stiff_spring", "underdamped")
-    (s,) = DEFECTS["stiffness_plus_1pct"].scene(spring).springs
-    assert s == replace(spring.springs[0], stiffness=spring.springs[0].stiffness * 1.01)
-    (s,) = DEFECTS["no_spring_damping"].scene(spring).springs
-    assert spring.springs[0].damping > 0 and s == replace(spring.springs[0], damping=0.0)
-    (s,) = DEFECTS["rest_length_plus_0.5pct"].scene(spring).springs
-    assert s == replace(spring.springs[0], rest_length=spring.springs[0].rest_length * 1.005)
+    (old,) = spring.part(Springs).to_records()
+
+    def one_spring(defect):
+        (s,) = DEFECTS[defect].scene(spring).part(Springs).to_records()
+        return s
+    assert one_spring("stiffness_plus_1pct") == replace(old, stiffness=old.stiffness * 1.01)
+    assert old.damping > 0 and one_spring("no_spring_damping") == replace(old, damping=0.0)
+    assert one_spring("rest_length_plus_0.5pct") == replace(old,
+                                                            rest_length=old.rest_length * 1.005)
     pendulum = _scene("pendulum", "default")
-    (j,) = DEFECTS["rest_length_plus_0.5pct"].scene(pendulum).joints
-    assert j == replace(pendulum.joints[0], length=pendulum.joints[0].length * 1.005)
+    (rod,) = pendulum.part(Joints).to_records()
+    (j,) = DEFECTS["rest_length_plus_0.5pct"].scene(pendulum).part(Joints).to_records()
+    assert j == replace(rod, length=rod.length * 1.005)
     cloth = _scene("cloth_hang", "bending")
-    net, = DEFECTS["stiffness_plus_1pct"].scene(cloth).networks
-    assert np.array_equal(net.stiffness, cloth.networks[0].stiffness * 1.01)
-    assert np.array_equal(net.dihedral_stiffness, cloth.networks[0].dihedral_stiffness * 1.01)
-    assert np.array_equal(net.rest_length, cloth.networks[0].rest_length)
+    before = cloth.part(SpringNetwork)
+    net = DEFECTS["stiffness_plus_1pct"].scene(cloth).part(SpringNetwork)
+    assert np.array_equal(net.stiffness, before.stiffness * 1.01)
+    assert np.array_equal(net.dihedral_stiffness, before.dihedral_stiffness * 1.01)
+    assert np.array_equal(net.rest_length, before.rest_length)
     # a scene the defect cannot touch is returned as it is (the driver skips its jobs)
     assert DEFECTS["no_spring_damping"].scene(scene) is scene
 

@@ -8,6 +8,7 @@ from refsim_cases.grid_evolution._modes import ModeGrid
 from refsim_cases.grid_evolution.wave_mode import step_matrix
 from refsim.integrators.sparse_linear import first_order_implicit, second_order_implicit
 from refsim.models.grid_pde import GridPDE
+from refsim.scene import Grid
 
 EPS = np.finfo(float).eps
 
@@ -16,7 +17,7 @@ def _grid(model, coefficient):
     g = ModeGrid({"dim": 2, "cells": 10, "k": 2, "boundary": "dirichlet"})
     fields = {"u": g.mode()} if model == "diffusion" else {"u": g.mode(),
                                                           "v": np.zeros(g.shape)}
-    return g, g.scene(model, fields, {coefficient: 0.7}).grids[0]
+    return g, g.scene(model, fields, {coefficient: 0.7}).part(Grid)
 
 
 @pytest.mark.parametrize("name", ["explicit_euler", "implicit_euler", "crank_nicolson"])

@@ -114,7 +114,7 @@ def test_x_belongs_to_the_scenes_one_moving_kind():
     """A network's "x" holds every node of every network; a fluid's "x" is planar; a grid
     scene has no "x" at all."""
     assert expected(CLOTH)["x"] == ((7, 3), True)
-    assert expected(TANK)["x"] == ((TANK.fluid.particle_count, 2), True)
+    assert expected(TANK)["x"] == ((TANK.part(FluidBlock).particle_count, 2), True)
     assert "x" not in expected(HEAT)
 
 

@@ -315,7 +315,7 @@ def test_a_scene_from_parts_equals_the_scene_from_records():
     records = Scene(parts=(Particles.of(TWO), Springs.of((spring,)), Joints.of((rod,)), Walls.of((wall,))))
     parts = Scene(parts=(Particles.of(Particles.from_records(TWO)), Springs.of(Springs.from_records((spring,))), Joints.of(Joints.from_records((rod,))), Walls.of(Walls.from_records((wall,)))))
     assert parts == records and hash(parts) == hash(records)
-    assert np.array_equal(parts.wall_set.normal[0], wall.normal)  # unit rows kept bit-exact
+    assert np.array_equal(parts.part(Walls).normal[0], wall.normal)  # unit rows kept bit-exact
     assert Scene(parts=(Particles.of(TWO),), gravity=(0, 0, -1)) != records
 
 

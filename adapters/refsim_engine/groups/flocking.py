@@ -57,7 +57,7 @@ def _supports(engine, scene, integrator):
         return (f"refsim flocking: integrator must be one of {list(INTEGRATORS)} (got "
                 f"{integrator!r})")
     if scene.part(Particles) is None:
-        return "refsim flocking needs the birds as scene.bodies (Particles)"
+        return "refsim flocking needs the birds as a Particles part"
     return None
 
 

@@ -45,7 +45,7 @@ def test_one_step_equals_hand_kick_drift():
     sim = get_engine("refsim").build(sc, 0.05, "symplectic_euler")
     sim.step(1)
     from refsim.models.nbody_gravity import pair_accelerations
-    p = sc.particles
+    p = sc.part(Particles)
     v1 = p.velocity + 0.05 * pair_accelerations(p.position, p.mass, 1.0, 0.1)
     np.testing.assert_array_equal(sim.observe()["v"], v1)
     np.testing.assert_array_equal(sim.observe()["x"], p.position + 0.05 * v1)
@@ -58,8 +58,8 @@ def test_momentum_conserved_to_roundoff(integrator):
     sim = get_engine("refsim").build(sc, 0.01, integrator)
     p0 = sim.observe()["momentum"]
     sim.step(200)
-    force = np.sum(sc.particles.mass * np.linalg.norm(pair_accelerations(
-        sc.particles.position, sc.particles.mass, 1.0, 0.2), axis=-1))
+    force = np.sum(sc.part(Particles).mass * np.linalg.norm(pair_accelerations(
+        sc.part(Particles).position, sc.part(Particles).mass, 1.0, 0.2), axis=-1))
     # sum m a cancels up to n^2 eps sum m |a| per evaluation; dt times that per stage, 4
     # stages, 200 steps; times 2: the bodies (~2 m apart, 0.1 m/s) barely move in 2 s, so
     # sum m |a| stays within a factor 2 of its start

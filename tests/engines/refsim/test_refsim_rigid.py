@@ -87,7 +87,7 @@ def test_many_bodies_step_together_like_one(engine):
     sim = engine.build(many, 0.01, "rk4", "quat_exp")
     sim.step(10)
     pick = [0, 517, 999]
-    rigid = many.rigid
+    rigid = many.part(RigidBodies)
     one = Scene(parts=(RigidBodies(
         mass=rigid.mass[pick], inertia=rigid.inertia[pick], position=rigid.position[pick],
         orientation=rigid.orientation[pick], velocity=rigid.velocity[pick],
