@@ -8,7 +8,7 @@ from pathlib import Path
 from refsim.options import number
 from refsim.report.compare import (DEFAULT_ERROR_THRESHOLD, DEFAULT_TIME_THRESHOLD,
                                    compare_runs, print_result)
-from refsim.store.results import atomic_write
+from refsim.store.atomic import atomic_write
 from refsim.store.runs import open_run, parse_renames, rename_rows
 
 HELP = "row-by-row error and time ratios of two stored runs; exit 1 on a regression"

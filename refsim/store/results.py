@@ -12,12 +12,13 @@ import platform
 import secrets
 import subprocess
 import sys
-import tempfile
 import time
 from datetime import datetime, timezone
 from pathlib import Path
 
 import pandas as pd
+
+from refsim.store.atomic import atomic_write  # noqa: F401  (the store's one writer)
 
 DEFAULT_ROOT = Path("reports") / "runs"
 JOURNAL = "rows.jsonl"
@@ -35,18 +36,6 @@ FORMAT = 3
 
 def new_run_id() -> str:
     return datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ") + "-" + secrets.token_hex(3)
-
-
-def atomic_write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 class RunStore:

@@ -15,6 +15,8 @@ import hashlib
 import json
 from pathlib import Path
 
+from refsim.store.atomic import atomic_write
+
 TEXT_FILE = "settings_text.json"
 TOKEN = "text:"
 
@@ -88,7 +90,6 @@ class SettingsText:
         after = (len(self.texts), sum(len(v) for d in self.by_formulation.values()
                                       for v in d.values()))
         if after != before:
-            from refsim.store.results import atomic_write
             atomic_write(self.path, json.dumps({"texts": self.texts,
                                                 "by_formulation": self.by_formulation},
                                                indent=1, sort_keys=True))
