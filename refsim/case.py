@@ -291,7 +291,12 @@ def order_tolerance(scale: float, omega_t: float, y: float, order: int,
     """
     if symplectic:
         return scale * (y ** order + omega_t * y ** (2 * ((order + 1) // 2)))
-    return scale * np.expm1(max(omega_t, 1.0) * y ** order)
+    # past exp's range (exponent > 709.78) the bound is infinite: no error is ruled out at
+    # that step, and it says so as inf, without numpy's overflow warning on the console
+    exponent = max(omega_t, 1.0) * y ** order
+    if exponent > np.log(np.finfo(float).max):
+        return math.inf
+    return scale * np.expm1(exponent)
 
 
 def is_symplectic(settings) -> bool:

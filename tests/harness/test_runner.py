@@ -347,3 +347,15 @@ def test_stored_runs_carry_their_format_and_a_newer_one_is_refused(tmp_path):
     (old / "manifest.json").write_text(json.dumps({"run_id": "old", "format": FORMAT + 1}))
     with pytest.raises(ValueError, match="run format must be"):
         run_format(old)
+
+
+def test_an_overflowing_order_bound_is_infinite_and_silent():
+    """Past exp's range the non-symplectic bound rules nothing out: inf, with no numpy warning
+    on the console (refsim run --case pendulum --dt 10 printed four)."""
+    import warnings
+
+    from refsim.case import order_tolerance
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert order_tolerance(1.0, 100.0, 10.0, 2) == float("inf")
+        assert order_tolerance(2.0, 1.0, 0.1, 2) == 2.0 * np.expm1(1.0 * 0.1 ** 2)  # same ops
