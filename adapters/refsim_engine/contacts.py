@@ -1,6 +1,8 @@
-"""The in-house engine's contact step for sphere scenes (`refsim`, feature "contacts").
+"""The in-house engine's contact step for sphere scenes (`refsim`, feature "contacts"): a
+helper of the spheres group (groups/spheres.py), which reads the scene and passes the bodies,
+the contact model and the walls; the sim never looks at a scene.
 
-One step of h: gravity kick, then one of three contact formulations (engine variants):
+One step of h: gravity kick, then one of three contact formulations:
 - `discrete`: drift, find overlaps at the end of the step, impulses for approaching pairs
   (Jacobi passes until none approaches), then project positions out of penetration;
 - `continuous`: time of impact within the step for approaching pairs and walls; the impulse
@@ -16,31 +18,33 @@ import numpy as np
 
 from refsim.engine import Sim
 from refsim.models import collisions as col
-from refsim.scene import Particles, Walls
 
-CONTACT_VARIANTS = ("discrete", "continuous", "hard_sphere_seed")
+CONTACT_FORMULATIONS = ("discrete", "continuous", "hard_sphere_seed")
+NO_WALLS = np.zeros((0, 3))
+NO_WALLS.flags.writeable = False
 
 
 class ContactSim(Sim):
-    """Spheres and walls stepped by a gravity kick, then the variant's contact formulation.
-    The variant was validated by `Engine.build` (one of CONTACT_VARIANTS)."""
+    """The spheres of `particles` (a Particles part) and the planes through `wall_point` with
+    normals `wall_normal` ((w, 3) each, w >= 0), under `gravity` (3,) and `contact` (a
+    ContactModel), stepped by a gravity kick, then the formulation's contact step. The
+    formulation was validated by `Engine.build` (one of CONTACT_FORMULATIONS)."""
 
-    def __init__(self, scene, dt, variant):
-        self.dt, self.variant = float(dt), variant
-        bodies = scene.part(Particles)
-        self.x, self.v = bodies.position.copy(), bodies.velocity.copy()
-        self.w = bodies.angular_velocity.copy()
-        self.m, self.r = bodies.mass, bodies.radius
+    def __init__(self, dt, formulation, particles, gravity, contact, wall_point=NO_WALLS,
+                 wall_normal=NO_WALLS):
+        self.dt, self.formulation = float(dt), formulation
+        self.x, self.v = particles.position.copy(), particles.velocity.copy()
+        self.w = particles.angular_velocity.copy()
+        self.m, self.r = particles.mass, particles.radius
         self.inv_m = 1.0 / self.m
-        inertia = bodies.inertia
+        inertia = particles.inertia
         self.inv_i = np.divide(1.0, inertia, out=np.zeros_like(inertia), where=inertia > 0)
-        self.g = np.asarray(scene.gravity)
-        self.e, self.mu = scene.contact.restitution, scene.contact.friction
-        walls = scene.part(Walls) or Walls.of(())
-        self.wall_p, self.wall_n = walls.point, walls.normal  # read-only
+        self.g = np.asarray(gravity)
+        self.e, self.mu = contact.restitution, contact.friction
+        self.wall_p, self.wall_n = wall_point, wall_normal  # read-only
         self.wall_impulse = np.zeros(3)
         self._step = {"discrete": self._discrete, "continuous": self._continuous,
-                      "hard_sphere_seed": self._seed}[variant]
+                      "hard_sphere_seed": self._seed}[formulation]
 
     def _step_impl(self, n):
         for _ in range(n):
@@ -124,15 +128,16 @@ class ContactSim(Sim):
                            "approaches, then projection",
                "continuous": "impulses at the time of impact within the step, then projection",
                "hard_sphere_seed": "the slide's hard-sphere update as printed (u = x1 - x2, "
-                                   "unnormalised), then projection"}[self.variant]
+                                   "unnormalised), then projection"}[self.formulation]
         broad = "all pairs" if len(self.x) < 16 else "uniform grid, cell 2 r_max (sorted ids)"
         return {"integrator": {"name": "symplectic_euler", "order": 1,
                                "family": "symplectic Euler + contact impulses",
                                "explicit": True, "symplectic": False},
-                "contact_model": "impulse" if self.variant != "hard_sphere_seed" else "seed",
-                "detection": "continuous" if self.variant == "continuous" else "discrete",
+                "contact_model": ("impulse" if self.formulation != "hard_sphere_seed"
+                                  else "seed"),
+                "detection": "continuous" if self.formulation == "continuous" else "discrete",
                 "contact_law": law, "broad_phase": broad, "restitution": self.e,
                 "friction": self.mu, "dtype": "float64",
                 "stages": (["gravity"] if self.g.any() else []) + [
-                    "broad_phase", "narrow_phase", f"contacts:{self.variant}", "projection",
-                    "integrate:symplectic_euler"], "threads": 1}
+                    "broad_phase", "narrow_phase", f"contacts:{self.formulation}",
+                    "projection", "integrate:symplectic_euler"], "threads": 1}

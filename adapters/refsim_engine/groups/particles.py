@@ -6,11 +6,14 @@ or walls beside them and no contact model (walls then only bound the scene: noth
 """
 from __future__ import annotations
 
+from functools import partial
+
 from refsim.engine import ModelGroup
 from refsim.integrators import get_integrator
-from refsim.scene import Joints
+from refsim.scene import Joints, Particles, Springs
 
 from ...common.checks import rods_per_body, springs_on_rod_bodies
+from ...common.hinges import rod_length_errors
 
 JOINT_FORMULATIONS = ("generalized", "kkt", "penalty")
 KINDS = frozenset({"particles", "springs", "joints", "walls"})
@@ -42,11 +45,25 @@ def _supports(engine, scene, integrator):
 
 def _build(engine, scene, dt, integrator, formulation):
     from ..hinges import HingeSim
-    from ..particles import ParticleSim
+    from ..particles import ParticleSim, baumgarte_rods, penalty_rod_springs
     stepper = get_integrator(integrator)
     if formulation == "generalized":
         return HingeSim(scene, dt, stepper)
-    return ParticleSim(scene, dt, stepper, formulation, PENALTY_RATIO, BAUMGARTE_RATIO)
+    bodies, given, joints = (scene.part(c) for c in (Particles, Springs, Joints))
+    springs = list(given.to_records()) if given is not None else []
+    rods, constraint, extra = None, None, {}
+    if joints is not None:  # rods: penalty springs or kkt constraints, their errors observed
+        constraint = partial(rod_length_errors, scene)
+        if formulation == "penalty":
+            rod_springs = penalty_rod_springs(joints, bodies.mass, scene.gravity, PENALTY_RATIO)
+            springs += rod_springs
+            extra = {"penalty_stiffness": [s.stiffness for s in rod_springs],
+                     "penalty_ratio": PENALTY_RATIO}
+        else:
+            rods = baumgarte_rods(joints, scene.gravity, BAUMGARTE_RATIO)
+            extra = {"baumgarte_w": rods.baumgarte, "baumgarte_w_dt": rods.baumgarte * dt}
+    return ParticleSim(dt, stepper, bodies, scene.gravity, scene.linear_drag, formulation,
+                       springs, rods, constraint, extra)
 
 
 MODEL_GROUP = ModelGroup(

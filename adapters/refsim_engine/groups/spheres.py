@@ -5,7 +5,7 @@ with contacts: those scenes are claimed here and refused with the reason."""
 from __future__ import annotations
 
 from refsim.engine import ModelGroup
-from refsim.scene import Joints, Springs
+from refsim.scene import Joints, Particles, Springs, Walls
 
 from ...common.checks import non_sphere_bodies
 
@@ -18,8 +18,8 @@ def claims(scene) -> bool:
 
 
 def _formulations(engine, scene):
-    from ..contacts import CONTACT_VARIANTS
-    return CONTACT_VARIANTS
+    from ..contacts import CONTACT_FORMULATIONS
+    return CONTACT_FORMULATIONS
 
 
 def _supports(engine, scene, integrator):
@@ -33,7 +33,10 @@ def _supports(engine, scene, integrator):
 
 def _build(engine, scene, dt, integrator, formulation):
     from ..contacts import ContactSim
-    return ContactSim(scene, dt, formulation)
+    walls = scene.part(Walls)
+    planes = () if walls is None else (walls.point, walls.normal)
+    return ContactSim(dt, formulation, scene.part(Particles), scene.gravity, scene.contact,
+                      *planes)
 
 
 MODEL_GROUP = ModelGroup(
