@@ -24,7 +24,8 @@ def add_arguments(run) -> None:
     run.add_argument("--full", action="store_true", help="every engine formulation over the "
                      "whole dt sweep (by default alternatives run at the reference dt)")
     run.add_argument("--out", default=None, help="runs directory (default reports/runs)")
-    run.add_argument("--repeats", default="3", help="timing repeats (>= 1)")
+    run.add_argument("--repeats", default="5", help="the most timing repeats (>= 1; they "
+                     "stop at two once the median is within 5 %% of the min)")
     run.add_argument("--resume", default=None, help="finish the interrupted run RUN_ID")
     run.add_argument("--threads", default="1", help="BLAS/OpenMP threads (>= 1)")
     run.add_argument("--max-steps", default=None, help="bound on the steps of one run "

@@ -118,7 +118,7 @@ def _engine_jobs(cname, variant, engine, scene, integrators, sweep, alt_sweep, u
 # ---------------------------------------------------------------------------------------------
 # The matrix
 # ---------------------------------------------------------------------------------------------
-def run_matrix(jobs, store, repeats=3, budget_s=BUDGET_S, progress=None,
+def run_matrix(jobs, store, repeats=5, budget_s=BUDGET_S, progress=None,
                workers=1, executor=None) -> pd.DataFrame:
     """Runs every job not yet in `store` on `executor` (refsim.run.executors: by default in this
     process for one worker, else `Local(workers)`: separate processes, each on one
