@@ -103,7 +103,7 @@ def cmd_run(args, argv) -> int:
                        harness_s=st.harness_s, harness_overhead=share, workers=workers,
                        **{k: v for k, v in executor.describe().items() if k != "workers"})
     print_summary(table)
-    status = 0 if args.no_report else _report_after_run(st.dir)
+    status = 0 if args.no_report else _report_after_run(st)
     print(f"\nrun time {wall:.1f} s on {workers} worker(s), {st.busy_s:.1f} s of work: "
           f"harness overhead {st.harness_s:.1f} s ({100 * share:.1f} %; the rest is engines' "
           "setup, compilation, stepping and observation)")
@@ -111,12 +111,14 @@ def cmd_run(args, argv) -> int:
     return status
 
 
-def _report_after_run(run_dir) -> int:
-    """The report of a finished run: 0, or 1 when rendering failed. An error inside the report
-    (matplotlib, a figure) is not bad input: the stored run is complete and kept, and the
-    message says so instead of exit 2's "refsim: error"."""
+def _report_after_run(st) -> int:
+    """The report of a finished run (its wall time kept in the manifest as `report_s`): 0,
+    or 1 when rendering failed. An error inside the report (matplotlib, a figure) is not bad
+    input: the stored run is complete and kept, and the message says so instead of exit 2's
+    "refsim: error"."""
     import time
     from refsim.report.build import write_report
+    run_dir = st.dir
     t0 = time.perf_counter()
     try:
         md, _ = write_report(run_dir)
@@ -125,7 +127,9 @@ def _report_after_run(run_dir) -> int:
               f"{str(exc).splitlines()[0] if str(exc) else ''}); every row is stored in "
               f"{run_dir}: render it again with `refsim report {run_dir}`", file=sys.stderr)
         return 1
-    print(f"\nreport: {md} and report.html ({time.perf_counter() - t0:.1f} s)")
+    report_s = time.perf_counter() - t0
+    st.update_manifest(report_s=report_s)
+    print(f"\nreport: {md} and report.html ({report_s:.1f} s)")
     return 0
 
 

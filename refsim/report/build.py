@@ -43,6 +43,7 @@ def write_report(run_dir, target_error=None, out=None):
     style = Style.of_table(table)
     blocks = _header(manifest, table) + [("nav",)]
     blocks += overview_blocks(table, definitions, target_error, out, style)
+    blocks += work_blocks(table, definitions)
     sections = [(definitions.of_row(rows.iloc[0]), rows)
                 for _, rows in table.groupby(["case", "variant"], sort=False)]
     for section in _render_sections(sections, series, target_error, out, style):
@@ -146,7 +147,7 @@ def _case_section(d, rows, series, target_error, out, style=None):
     title = f"{d['case']} / {d['variant']}"
     slug = title.replace(" / ", "-").replace("/", "_").replace(" ", "_").replace("=", "")
     compared = f" Compared: `{col}` of {observable} ({units})." if observable else ""
-    blocks = [("h2", title), ("p", f"{d['description']}.{compared}")]
+    blocks = [("h2", title), ("p", f"{d['description']}.{compared}"), ("p", _work_line(rows))]
     if math.isfinite(target):  # a definition with no target error gets no recommendation
         blocks.append(("p", recommendation(rows, col, units, target)))
     ran = rows[np.isfinite(rows["dt"])]
@@ -174,6 +175,39 @@ def _case_section(d, rows, series, target_error, out, style=None):
     blocks += [("h3", "Results"), ("table", compact_table(rows, col, d.get("report_columns", ()),
                                                           orders=meaningful))]
     return blocks
+
+
+def work_blocks(table, definitions) -> list:
+    """Where the run's work went: seconds per model group and engine (a row's wall_s: both
+    passes and the harness's checks in its worker), largest first."""
+    from refsim.run.budget import work_by
+    from refsim.store.definitions import model_group
+    if "wall_s" not in table or table.empty:
+        return []
+    groups = {c: model_group(definitions, c) for c in table["case"].unique()}
+    work = work_by(table.assign(model_group=table["case"].map(groups)),
+                   ["model_group", "engine"])
+    total = float(work["work_s"].sum())
+    grid = work.pivot_table(index="model_group", columns="engine", values="work_s",
+                            aggfunc="sum", fill_value=0.0)
+    grid["all engines"] = grid.sum(axis=1)
+    grid = grid.sort_values("all engines", ascending=False)
+    jobs = work.groupby("model_group")["jobs"].sum()
+    shown = pd.DataFrame({"model group": grid.index,
+                          **{e: [f"{w:.1f}" if w else "-" for w in grid[e]] for e in grid},
+                          "jobs": [int(jobs[g]) for g in grid.index],
+                          "share": [f"{100 * w / max(total, 1e-12):.1f} %"
+                                    for w in grid["all engines"]]})
+    return [("h2", "Work per model group", "work"),
+            ("p", f"{total:.0f} s of work in {len(table)} jobs, in seconds per model group "
+                  "and engine (each row's wall time in its worker: both passes and the "
+                  "harness's checks); the case sections give each case's own."),
+            ("table", shown)]
+
+
+def _work_line(rows) -> str:
+    work = pd.to_numeric(rows["wall_s"], errors="coerce").fillna(0.0)
+    return f"Work: {work.sum():.1f} s in {len(rows)} jobs."
 
 
 def recommendation(rows, col, units, target) -> str:

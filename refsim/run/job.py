@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -16,29 +17,12 @@ from refsim.engine import IntegratorInfo, jsonable
 from refsim.integrators import method_info
 from refsim.run.metrics import energy_drift, error_norms
 from refsim.options import check_steps
+from refsim.run.timing import BUDGET_S, LONG_RUN_S, build_sim as _build, timing_pass
 from refsim.registry import get_case, get_engine
 from refsim.verdicts import (INCONSISTENT, NO_REFERENCE, UNRESOLVED, declared_reason,
                              energy_reason, judge, reaches)
 
 STATUSES = ("ok", "diverged", "unsupported", "unavailable", "failed", "timeout")
-# The timing pass steps fresh models with nothing observed, repeating until the figure is
-# stable (see _timing_pass). A run whose accuracy pass spent over LONG_RUN_S inside step calls
-# is timed over its first N' steps only, N' chosen so that one timed run takes about
-# LONG_RUN_S, and scaled to the whole run (`timed_steps` says N'); the accuracy pass never
-# gives the timing sample (its step calls are one per observation: a taichi kernel launch
-# each, 0.4 ms against 0.9 us per step inside one launch, measured on newtons_cradle).
-# 0.1 s a timed run: the scheduler's jitter (a few ms a second on a quiet 2-core machine) is a
-# few per cent of it, below the spread at which repeats stop.
-LONG_RUN_S = 0.1
-# Repeats stop once the median of the timed runs is within TIMING_SPREAD of their min (at
-# least two runs), or past BUDGET_S of timed runs while unsettled (`timing` says so).
-TIMING_SPREAD = 0.05
-BUDGET_S = 0.5
-PROBES = 4  # probe calls at most to size N' (each grows it by LONG_RUN_S / its time)
-# a run whose 1-step call takes over this share of its whole call is call-dominated, said
-# in `timing`: its us_per_step is mostly the call's fixed cost (taichi newtons_cradle: a
-# 400-800 us launch and sync, +-300 us, against 125-700 us of steps in the whole run)
-CALL_DOMINATED = 0.5
 
 
 @dataclass(frozen=True)
@@ -74,7 +58,7 @@ def _blank_row(job: Job, run_id: str) -> dict:
                 "tolerance", "diverged_t", "wall_s", "engine_s"):
         row[col] = float("nan")
     row.update(repeats=0, timed_steps=0, settings="{}", reaches_target=False, consistency="",
-               consistency_reason="", tol_reason="", samples=0, timing="")
+               consistency_reason="", tol_reason="", samples=0, timing="", warnings="")
     return row
 
 
@@ -86,12 +70,25 @@ def run_job(job: Job, run_id: str = "", repeats: int = 5, budget_s: float = BUDG
     repeats = repeats if job.timed else 0
     t0 = time.perf_counter()
     clock = EngineClock()
-    try:
-        _run_job(job, row, repeats, budget_s, keep_trajectory, clock)
-    except Exception as exc:  # a failure is a row, never a crash of the sweep
-        row.update(status="failed", reason=f"{type(exc).__name__}: {exc}".splitlines()[0])
-    row.update(wall_s=time.perf_counter() - t0, engine_s=clock.total)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # every warning of the job into its row
+        try:
+            _run_job(job, row, repeats, budget_s, keep_trajectory, clock)
+        except Exception as exc:  # a failure is a row, never a crash of the sweep
+            row.update(status="failed", reason=f"{type(exc).__name__}: {exc}".splitlines()[0])
+    row.update(wall_s=time.perf_counter() - t0, engine_s=clock.total,
+               warnings=warnings_text(caught))
     return row
+
+
+def warnings_text(caught) -> str:
+    """The job's warnings (an engine's own, numpy's on a diverging state) as one line for the
+    row's `warnings` column, each distinct one once with its count: never the terminal."""
+    counts = {}
+    for w in caught:
+        text = f"{w.category.__name__}: {str(w.message).splitlines()[0] if str(w.message) else ''}"
+        counts[text] = counts.get(text, 0) + 1
+    return "; ".join(t + (f" (x{n})" if n > 1 else "") for t, n in counts.items())
 
 
 class EngineClock:
@@ -145,7 +142,7 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
     if repeats > 0:  # repeats=0: accuracy pass only (tests, convergence studies)
         timed = steps if stepping_s <= LONG_RUN_S else max(
             1, min(steps, int(steps * LONG_RUN_S / stepping_s)))
-        row.update(clock.call(_timing_pass, engine, scene, job, steps, timed, repeats,
+        row.update(clock.call(timing_pass, engine, scene, job, steps, timed, repeats,
                               budget_s))
 
 
@@ -188,12 +185,6 @@ def _energy_behaviour(case, p, method, settings, row, stacked) -> str | None:
         return None
     e_scale = max(abs(float(energy[0])), case.energy_scale(p))
     return energy_reason(stacked["t"], energy, e_scale, period, row["steps"])
-
-
-def _build(engine, scene, job):
-    t0 = time.perf_counter()
-    sim = engine.build(scene, job.dt, job.integrator, job.engine_variant)
-    return sim, time.perf_counter() - t0 - sim.compile_s
 
 
 def _nominal_order(job):
@@ -321,74 +312,3 @@ def _accuracy_metrics(case, p, stacked):
         out["constraint_drift"] = float(np.max(np.abs(observed["constraint"])))
     out.update(case.extra_metrics(p, stacked, observed, reference))
     return out
-
-
-def _timing_pass(engine, scene, job, steps, timed, repeats, budget_s):
-    """Fresh models each stepped `timed` steps in one call, nothing observed inside the timed
-    region, and as many fresh models stepped one step in one call (`call_us`: the fixed cost
-    of a call, e.g. a kernel launch and sync). us_per_step is what a step costs when the run
-    is stepped in one call, the call's fixed cost included (min over the fresh models / N'):
-    the engine's real cost of the run, never the harness's. A call-dominated run (its 1-step
-    call over CALL_DOMINATED of the whole call) says so in `timing`; its marginal per-step cost
-    is below the call's jitter. A run of `steps` is scaled from its first `timed` steps. The
-    accuracy pass just ran the same code on the same scene and step: it is the warm-up
-    (compilation, caches, lazy imports).
-
-    Repeats stop when the figure is stable: at least min(2, `repeats`) timed runs, then more
-    (up to `repeats`) only while the median is over TIMING_SPREAD above the min and the timed
-    runs have taken less than `budget_s`; `timing` gives the count and the spread, and says
-    `unsettled` when it stopped above it. The probe that sized N' is itself the first timed
-    run when its N is the final one."""
-    timed, times = _probe_stretch(engine, scene, job, steps, timed)
-    ones, setups, spent = [], [], sum(times)
-    least = min(2, max(1, repeats))
-    while len(times) < max(1, repeats) and not (
-            len(times) >= least and (_spread(times) <= TIMING_SPREAD or spent >= budget_s)):
-        sim, setup_s = _build(engine, scene, job)
-        t0 = time.perf_counter()
-        sim.step(timed)
-        times.append(time.perf_counter() - t0)
-        sim.close()
-        setups.append(setup_s)
-        spent += times[-1]
-    while len(ones) < len(times):
-        sim, setup_s = _build(engine, scene, job)
-        t0 = time.perf_counter()
-        sim.step(1)
-        ones.append(time.perf_counter() - t0)
-        sim.close()
-        setups.append(setup_s)
-    best, call, spread = min(times), min(ones), _spread(times)
-    scale = steps / timed
-    stretch = "" if timed == steps else f", first {timed} of {steps} steps, scaled"
-    settled = ("" if len(times) < 2 else f", median {100 * spread:.2g} % above it" + (
-        "" if spread <= TIMING_SPREAD else " (unsettled)"))
-    dominated = (f"; call-dominated: a 1-step call takes {call * 1e6:.3g} us of its "
-                 f"{best * 1e6:.3g} us" if timed > 1 and call > CALL_DOMINATED * best else "")
-    return {"step_s": best * scale, "step_s_median": float(np.median(times)) * scale,
-            "us_per_step": best / timed * 1e6, "call_us": call * 1e6, "repeats": len(times),
-            "timed_steps": timed, "setup_s": min(setups),
-            "timing": f"fresh models, min of {len(times)}{settled}{stretch}{dominated}"}
-
-
-def _spread(times) -> float:
-    """(median - min) / min of the timed runs (0 for one run)."""
-    best = min(times)
-    return float(np.median(times)) / best - 1.0 if best > 0 else 0.0
-
-
-def _probe_stretch(engine, scene, job, steps, timed):
-    """N' came from the accuracy pass, whose per-observation calls (a kernel launch each) may
-    dwarf the stepping: probe calls of N' steps, N' grown to what fits LONG_RUN_S by each
-    measure (the whole run when it fits), at most PROBES of them. Returns N' and the probe's
-    time as the first timed run when the last probe ran the final N' ([] otherwise)."""
-    for _ in range(PROBES):
-        sim, _ = _build(engine, scene, job)
-        t0 = time.perf_counter()
-        sim.step(timed)
-        probe = time.perf_counter() - t0
-        sim.close()
-        if timed >= steps or probe >= LONG_RUN_S / 4:
-            return timed, [probe]
-        timed = min(steps, int(timed * LONG_RUN_S / max(probe, 1e-9)))
-    return timed, []

@@ -121,11 +121,11 @@ def test_timing_repeats_stop_when_the_median_is_within_the_spread(
     """The stopping rule with a scripted clock (no machine noise): at least two timed runs,
     more while the median is over TIMING_SPREAD (5 %) above the min and the timed runs have
     taken under the budget; the probe that sized N' (its N the final one) is the first run."""
-    import refsim.run.job as job_module
+    import refsim.run.timing as job_module
     clock = _ScriptedClock(durations)
     monkeypatch.setattr(job_module, "time", clock)
     job = Job("free_fall", "default", "x", "", "rk4", 1e-3)
-    row = job_module._timing_pass(_ScriptedEngine(clock), None, job, steps=2000, timed=1000,
+    row = job_module.timing_pass(_ScriptedEngine(clock), None, job, steps=2000, timed=1000,
                                   repeats=repeats, budget_s=budget)
     assert row["repeats"] == expected and words in row["timing"], row["timing"]
     assert row["step_s"] == pytest.approx(2 * min(durations[:expected]))
@@ -359,7 +359,7 @@ class _LaunchEngine:
 def test_timing_stretch_is_not_sized_by_the_observation_calls():
     """The accuracy pass's per-observation calls made it look long (N' = 10 of 1000 steps):
     one probe call shows the whole run fits the timing budget, so the whole run is timed."""
-    from refsim.run.job import _timing_pass
+    from refsim.run.timing import timing_pass as _timing_pass
     job = Job("free_fall", "default", "x", "", "rk4", 1e-3)
     row = _timing_pass(_LaunchEngine(), None, job, steps=1000, timed=10, repeats=1,
                        budget_s=0.01)
@@ -420,3 +420,22 @@ def test_an_overflowing_order_bound_is_infinite_and_silent():
         warnings.simplefilter("error")
         assert order_tolerance(1.0, 100.0, 10.0, 2) == float("inf")
         assert order_tolerance(2.0, 1.0, 0.1, 2) == 2.0 * np.expm1(1.0 * 0.1 ** 2)  # same ops
+
+
+def test_an_engines_warnings_go_into_the_row_not_the_terminal(monkeypatch, recwarn):
+    """Warnings raised while a job runs (an engine's own, numpy's on a diverging state) are
+    the row's `warnings`, each distinct one once with its count; none reaches the caller."""
+    import warnings
+    import refsim.run.job as job_module
+
+    def warn_twice(job, row, *args):
+        warnings.warn("contact buffer full", UserWarning)
+        warnings.warn("contact buffer full", UserWarning)
+        np.float64(1e308) * 10  # numpy's overflow RuntimeWarning
+        row.update(status="ok")
+    monkeypatch.setattr(job_module, "_run_job", warn_twice)
+    row = run_job(Job("free_fall", "default", "refsim", "", "rk4", 1e-3), repeats=0)
+    assert row["status"] == "ok"
+    assert row["warnings"] == ("UserWarning: contact buffer full (x2); "
+                               "RuntimeWarning: overflow encountered in scalar multiply")
+    assert len(recwarn) == 0
