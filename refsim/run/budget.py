@@ -38,7 +38,8 @@ def measure(run_dir) -> dict:
     groups = work_by(table, KEYS)
     return {"run_id": manifest.get("run_id", ""), "cpu": manifest.get("cpu", ""),
             "workers": manifest.get("workers", 1), "wall_s": manifest.get("wall_s"),
-            "report_s": manifest.get("report_s"),
+            "report_s": manifest.get("report_s"), "work_s": float(groups["work_s"].sum()),
+            "jobs": int(groups["jobs"].sum()),
             "job_s": {"/".join(str(r[k]) for k in KEYS): r["work_s"] / r["jobs"]
                       for _, r in groups.iterrows()}}
 
