@@ -66,7 +66,7 @@ def test_the_default_matrix_has_not_grown_since_its_measurement():
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "issue 25 is open: the default run measured 364 s (710 s of work on 2 workers) + 57 s of "
+    "issue 25 is open: the default run measured 364 s (693 s of row work on 2 workers) + 57 s of "
     "report on an Intel Xeon on 2026-11-26, against 215 s; strict: it fails once it fits, "
     "and this mark goes"))
 def test_the_default_matrix_fits_the_default_run_budget():
