@@ -227,7 +227,8 @@ class Case:
                 "target_error": self.target_error(p), "error_floor": self.error_floor(p),
                 "error_ceiling": self.error_ceiling(p), "energy_scale": self.energy_scale(p),
                 "reference_dt": self.reference_dt(p), "order_meaningful": self.order_meaningful,
-                "figures": self.figures(p), "source_hash": self.source_hash()}
+                "figures": self.figures(p), "source_hash": self.source_hash(),
+                "model_group": module_group(type(self).__module__)}
 
     def tolerance_column(self, p) -> str:
         """The results column the tolerance bounds (by default `tolerance_norm`)."""
@@ -242,6 +243,13 @@ class Case:
         diff = np.asarray(observed[self.observable]) - np.asarray(reference[self.observable])
         return np.abs(diff) if diff.ndim == 1 else np.linalg.norm(
             diff.reshape(len(diff), -1), axis=1)
+
+
+def module_group(module_name: str) -> str:
+    """The model group of a case defined in `module_name`: its package's last component
+    (refsim_cases.<group>.<case>), else the module's top-level name."""
+    parts = module_name.split(".")
+    return parts[-2] if len(parts) >= 3 else parts[0]
 
 
 def _package_imports(module) -> list:

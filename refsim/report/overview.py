@@ -72,13 +72,18 @@ def cell(rows: pd.DataFrame, col: str, target: float) -> dict:
         cheapest = good.loc[good["step_s"].astype(float).idxmin()]
         out.update(verdict="reaches the target", cheapest=_config(cheapest),
                    run_time=float(cheapest["step_s"]))
+    elif math.isfinite(target) and out["best"] <= target:
+        # only untimed rows (the order fit's extra dts) reach it: the word follows the error
+        out.update(verdict="reaches the target", cheapest="an untimed order dt only")
     else:
         out["verdict"] = "does not reach the target"
     return out
 
 
 def scoreboard(table: pd.DataFrame, definitions, target_error=None) -> pd.DataFrame:
-    """One row per case x variant x engine: verdict, best error, target, cheapest config."""
+    """One row per case x variant x engine: verdict, best error, target, cheapest config,
+    sorted by model group (first seen first), in the run's order within a group."""
+    from refsim.store.definitions import model_group
     out = []
     for _, rows in table.groupby(["case", "variant", "params"], sort=False, dropna=False):
         d = definitions.of_row(rows.iloc[0])
@@ -86,9 +91,20 @@ def scoreboard(table: pd.DataFrame, definitions, target_error=None) -> pd.DataFr
         target = target_error if target_error is not None else float(d["target_error"])
         for engine, sub in rows.groupby("engine", sort=False):
             out.append({"case": f"{d['case']} / {d['variant']}", "engine": engine,
-                        "column": col, "target": target, "floor": float(d["error_floor"]),
+                        "model_group": _group_of(definitions, d, model_group), "column": col, "target": target, "floor": float(d["error_floor"]),
                         **cell(sub, col, target)})
-    return pd.DataFrame(out)
+    board = pd.DataFrame(out)
+    if board.empty:
+        return board
+    order = {g: k for k, g in enumerate(dict.fromkeys(board["model_group"]))}
+    return board.sort_values("model_group", key=lambda g: g.map(order), kind="stable",
+                             ignore_index=True)
+
+
+def _group_of(definitions, d, model_group) -> str:
+    if d.get("model_group"):
+        return d["model_group"]
+    return model_group(definitions, d["case"]) if hasattr(definitions, "stored") else "other"
 
 
 def _error_text(value: float, floor: float) -> str:
@@ -100,6 +116,7 @@ def _error_text(value: float, floor: float) -> str:
 def scoreboard_table(board: pd.DataFrame) -> pd.DataFrame:
     """The scoreboard as the report prints it: the target question, then the method one."""
     return pd.DataFrame({
+        "model group": board["model_group"],
         "case / variant": board["case"], "engine": board["engine"],
         "target": [f"{v} ({t:.2g})" if math.isfinite(t) and v in TARGET_WORDS else v
                    for v, t in zip(board["verdict"], board["target"])],
@@ -177,12 +194,16 @@ def _annotation(r) -> str:
 
 
 def overview_blocks(table, definitions, target_error, out: Path, style=None) -> list:
-    """The overview section: counts, the heatmap, the scoreboard table."""
+    """The overview section: one line per engine, the scoreboard (a coloured HTML table;
+    in Markdown the heatmap figure), the legend, the scoreboard's full text table."""
+    from refsim.report.board import board_html, engine_lines
     board = scoreboard(table, definitions, target_error)
     if board.empty:
         return []
     figure = heatmap(board, out / "plots" / "overview.png",
                      "Scoreboard: best error against the case's target", style)
-    return [("h2", "Overview", "overview"), ("p", counts_text(board)),
-            ("img", figure, "overview: scoreboard heatmap"),
-            ("table", scoreboard_table(board))]
+    return ([("h2", "Overview", "overview")] + [("p", line) for line in
+                                                 engine_lines(board, table)]
+            + [("html", board_html(board)), ("md_img", figure, "overview: scoreboard heatmap"),
+               ("p", counts_text(board)),
+               ("details", "Scoreboard, every cell in words", scoreboard_table(board))])

@@ -18,8 +18,10 @@ DPI = 72
 MAX_SERIES = 10  # series per axes at most
 PANEL = (4.2, 3.0)  # inches per small multiple
 COLUMNS = 3  # small multiples per figure row
-PALETTE_COLOURS = 24  # colours of the quantised PNG (octree: rare engine colours kept; 48
-# made the 12-case default report 2.58 MB, 24 made it 1.97 MB, engine colours still distinct)
+PALETTE_COLOURS = 16  # colours of the quantised PNG (octree: rare engine colours kept; 48
+# made the 12-case default report 2.58 MB, 24 made it 1.97 MB; on the 43-section default run,
+# as lossless WebP, 24 colours took 1.10 MB and 16 took 0.93 MB, the five engine colours
+# still distinct: compound_pendulum's work-precision figure looked at both ways)
 ENGINE_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b",
                   "#e377c2", "#17becf", "#bcbd22", "#7f7f7f")
 MARKERS = ("o", "s", "^", "v", "D", "P", "X", "*", "<", ">", "h", "p")

@@ -75,13 +75,6 @@ def _fallback(case_name: str, variant: str, key_params: str) -> dict:
                 "key_params": key_params, "missing": True}
 
 
-def module_group(module_name: str) -> str:
-    """The model group of a case defined in `module_name`: its package's last component
-    (refsim_cases.<group>.<case>), else the module's top-level name."""
-    parts = module_name.split(".")
-    return parts[-2] if len(parts) >= 3 else parts[0]
-
-
 def model_group(definitions: Definitions, case_name: str) -> str:
     """A case's model group as the run stored it (`model_group` of its definition), else from
     today's registry, "other" for a case no longer known."""
@@ -89,6 +82,7 @@ def model_group(definitions: Definitions, case_name: str) -> str:
         if d.get("case") == case_name and d.get("model_group"):
             return d["model_group"]
     try:
+        from refsim.case import module_group
         from refsim.registry import get_case
         return module_group(type(get_case(case_name)).__module__)
     except (ValueError, ImportError, AttributeError, KeyError):

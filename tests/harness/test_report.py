@@ -65,22 +65,30 @@ def test_overview_comes_before_the_case_sections(run_dir):
     overview = md.index("## Overview")
     assert overview < md.index("## free_fall / default")
     assert "plots/overview.png" in md[overview:md.index("## free_fall / default")]
-    scoreboard = [line for line in md.splitlines() if line.startswith("| free_fall / default |")]
-    assert [line.split("|")[2].strip() for line in scoreboard] == ["refsim", "pymunk"]
+    scoreboard = [line for line in md.splitlines()
+                  if line.startswith("| particles | free_fall / default |")]
+    assert [line.split("|")[3].strip() for line in scoreboard] == ["refsim", "pymunk"]
     # rk4 and velocity Verlet are exact on free fall, pymunk's drift-kick errs g t dt: both
     # consistent with their methods, only refsim reaches the target
-    assert [line.split("|")[3].strip().split(" (")[0] for line in scoreboard] == [
+    assert [line.split("|")[4].strip().split(" (")[0] for line in scoreboard] == [
         "reaches the target", "does not reach the target"]
-    assert all(line.split("|")[7].strip().endswith(" consistent") for line in scoreboard)
+    assert all(line.split("|")[8].strip().endswith(" consistent") for line in scoreboard)
+    # one line per engine first, in the run's words
+    for engine in ("refsim", "pymunk"):
+        assert re.search(rf"\*\*{engine}\*\*: \d of 2 case variants it runs reach the "
+                         r"target; \d+ of \d+ judged rows consistent", md)
     page = (run_dir / "report.html").read_text()
     assert page.index('id="overview"') < page.index("free_fall / default</h2>")
+    # grouped by model group: the group's heading row comes before its cases' rows
+    assert page.index("model group particles</th>") < page.index(
+        '<td class="case">free_fall / default</td>')
 
 
 def test_html_is_self_contained(run_dir):
     page = (run_dir / "report.html").read_text()
     assert page.startswith("<!DOCTYPE html>")
     sources = re.findall(r'src="([^"]+)"', page)
-    assert sources and all(s.startswith("data:image/png;base64,") for s in sources)
+    assert sources and all(s.startswith("data:image/webp;base64,") for s in sources)
     assert "http://" not in page and "https://" not in page
     assert page.count("<table") >= 4
 
@@ -214,3 +222,83 @@ def test_results_merged_by_hand_with_empty_missing_values_still_report(run_dir, 
         assert list(table[col]) == list(original[col]), col
     md, _ = write_report(merged)
     assert md.read_text().count("## ") >= 2
+
+
+LEGIBILITY = """<script>
+window.addEventListener("load", () => {
+  const rgb = c => (c.match(/\\d+(\\.\\d+)?/g) || []).slice(0, 4).map(Number);
+  const cells = Array.from(document.querySelectorAll(
+      "table.board td, table.board th, table.legend td, #overview ~ p"))
+    .slice(0, 4000).filter(el => el.textContent.trim().length > 0)
+    .map(el => { const cs = getComputedStyle(el);
+                 return {text: el.textContent.trim().slice(0, 40), size: parseFloat(cs.fontSize),
+                         color: rgb(cs.color), background: rgb(cs.backgroundColor)}; });
+  const out = document.createElement("pre");
+  out.id = "refsim-legibility";
+  out.textContent = JSON.stringify(cells);
+  document.body.appendChild(out);
+});
+</script>"""
+
+
+def _relative_luminance(rgb) -> float:
+    def channel(c):
+        c = c / 255
+        return c / 12.92 if c <= 0.03928 else ((c + 0.055) / 1.055) ** 2.4
+    return 0.2126 * channel(rgb[0]) + 0.7152 * channel(rgb[1]) + 0.0722 * channel(rgb[2])
+
+
+def test_overview_is_legible_at_100_percent_in_chromium(browser, run_dir, tmp_path):
+    """As Chromium lays the page out at 100 % zoom: every text cell of the scoreboard and its
+    colour legend, and every line of the per-engine summary, at least 10 px, and its text at
+    least 4.5:1 against its background (WCAG AA; a transparent background is the white page);
+    the scoreboard is an HTML table, not a picture of one; a screenshot of the overview at
+    1280 x 1600 is not blank."""
+    page = (run_dir / "report.html").read_text()
+    assert '<table class="board">' in page and '<table class="legend">' in page
+    checked = tmp_path / "legibility.html"
+    checked.write_text(page.replace("<head>", "<head>" + LEGIBILITY, 1))
+    found = re.search(r'<pre id="refsim-legibility">([^<]*)</pre>', _dump_dom(browser, checked))
+    assert found, "the legibility script did not run"
+    cells = json.loads(html.unescape(found.group(1)))
+    assert len(cells) >= 10  # a header, group rows, 2 x 2 cells, the legend, two engine lines
+    small = [c for c in cells if c["size"] < 10]
+    assert not small, small[:3]
+    low = []
+    for c in cells:
+        background = c["background"] if len(c["background"]) == 3 or (
+            len(c["background"]) == 4 and c["background"][3] > 0) else [255, 255, 255]
+        lum = sorted((_relative_luminance(c["color"]), _relative_luminance(background)))
+        ratio = (lum[1] + 0.05) / (lum[0] + 0.05)
+        if ratio < 4.5:
+            low.append((c["text"], round(ratio, 2)))
+    assert not low, low[:5]
+    shot = tmp_path / "overview.png"
+    subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+                    f"--screenshot={shot}", "--window-size=1280,1600",
+                    (run_dir / "report.html").as_uri() + "#overview"],
+                   capture_output=True, timeout=120, check=True)
+    import matplotlib.image as mpimg
+    pixels = mpimg.imread(shot)
+    assert pixels.shape[:2] == (1600, 1280) and pixels[..., :3].std() > 0.05
+
+
+def test_a_cells_colour_is_on_the_side_of_its_word(run_dir):
+    """On the run's real scoreboard and on the whole colour scale: a cell that reaches the
+    target is coloured on the green side, one short of it on the red side (the scale leaves a
+    gap around its middle), and its text colour reads at least 4.5:1 on it."""
+    from refsim.report.board import colour, contrast, ratio_of, text_colour
+    from refsim.report.overview import scoreboard
+    from refsim.store.definitions import Definitions
+    board = scoreboard(load_results(run_dir), Definitions.of_run(run_dir))
+    ran = board[board["verdict"].isin(("reaches the target", "does not reach the target"))]
+    assert set(ran["verdict"]) == {"reaches the target", "does not reach the target"}
+    for _, r in ran.iterrows():
+        ratio = ratio_of(r)
+        assert (ratio <= 0) == (r["verdict"] == "reaches the target"), (r["case"], ratio)
+    green, red = colour(-1e-9), colour(1e-9)
+    g, r_ = (int(green[k:k + 2], 16) for k in (1, 3)), (int(red[k:k + 2], 16) for k in (1, 3))
+    (gr, gg), (rr, rg) = g, r_
+    assert gg > gr and rr > rg  # green dominates below the target, red above it
+    for k in np.linspace(-6, 6, 241):
+        assert contrast(colour(k), text_colour(colour(k))) >= 4.5
