@@ -157,30 +157,30 @@ def heatmap(board: pd.DataFrame, path: Path, title: str, style=None):
     """Case/variant (rows) x engine (columns): colour log10(best error / target), each cell
     annotated with its target answer and its count of inconsistent rows; cells that did not
     run grey."""
+    from refsim.report.board import GREY, LEGEND_STEPS, colour, ratio_of, text_colour
     plt = rs._pyplot()
     cases = list(dict.fromkeys(board["case"]))
     engines = list(dict.fromkeys(board["engine"]))
-    ratio = np.full((len(cases), len(engines)), np.nan)
-    label_in = 0.3 + 0.062 * max((len(c) for c in cases), default=0)  # row labels, 7 pt
-    fig, ax = plt.subplots(figsize=(label_in + 1.6 + 1.35 * len(engines),
-                                    1.4 + 0.32 * len(cases)))  # 0.9 in title, 0.5 in bottom
-    ax.set_facecolor("#bbbbbb")
+    label_in = 0.3 + 0.075 * max((len(c) for c in cases), default=0)  # row labels, 9 pt
+    fig, ax = plt.subplots(figsize=(label_in + 0.6 + 1.6 * len(engines),
+                                    1.9 + 0.42 * len(cases)))  # 8-9 pt text at 72 dpi
     for r in board.itertuples(index=False):
         i, j = cases.index(r.case), engines.index(r.engine)
-        if math.isfinite(r.best) and math.isfinite(r.target) and r.target > 0:
-            ratio[i, j] = np.log10(max(r.best, r.floor, 1e-300) / r.target)
-        dark = abs(ratio[i, j]) > 2.5  # the colour map's deep ends: white text reads there
-        ax.text(j, i, _annotation(r), ha="center", va="center", fontsize=6.5,
-                color="white" if dark else "black")
-    image = ax.imshow(np.ma.masked_invalid(ratio), cmap="RdYlGn_r", vmin=-4, vmax=4,
-                      aspect="auto")
-    ax.set_xticks(range(len(engines)), engines, fontsize=8)
-    ax.set_yticks(range(len(cases)), cases, fontsize=7)
+        ran = r.verdict not in ("unsupported", "not run")
+        face = colour(ratio_of(r._asdict())) if ran else GREY
+        ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, facecolor=face,
+                                   edgecolor="white"))
+        ax.text(j, i, _annotation(r), ha="center", va="center", fontsize=8,
+                color=text_colour(face))
+    ax.set_xlim(-0.5, len(engines) - 0.5)
+    ax.set_ylim(len(cases) - 0.5, -0.5)
+    ax.set_xticks(range(len(engines)), engines, fontsize=9)
+    ax.set_yticks(range(len(cases)), cases, fontsize=9)
     ax.xaxis.tick_top()
-    bar = fig.colorbar(image, ax=ax, fraction=0.05, pad=0.02)
-    bar.set_label("log10(best error / target)", fontsize=7)
-    bar.ax.tick_params(labelsize=6.5)
-    return rs.save(fig, path, title, left_in=label_in, top_in=0.9)
+    scale = "   ".join(f"{k:+d}" if k else "0" for k in LEGEND_STEPS)
+    ax.set_xlabel("colour: log10(best error / target), green below the target (" + scale
+                  + "), red above; grey: not run", fontsize=9)
+    return rs.save(fig, path, title, left_in=label_in, top_in=0.9, colours=64)
 
 
 def _annotation(r) -> str:

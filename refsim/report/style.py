@@ -169,9 +169,10 @@ def finish_axes(ax, title: str, legend: bool = True) -> None:
         ax.legend(fontsize=6, frameon=False, loc="best")
 
 
-def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.65) -> Path:
+def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.65,
+         colours: int = PALETTE_COLOURS) -> Path:
     """Suptitle, fixed margins (inches: `left_in` for the y labels, `top_in` for the title),
-    and a palette PNG at DPI (a fraction of an RGBA PNG's size)."""
+    and a palette PNG of `colours` colours at DPI (a fraction of an RGBA PNG's size)."""
     from PIL import Image
     fig.suptitle(title, fontsize=10)
     # fixed margins in inches (tight_layout would draw the whole figure once more: it doubled
@@ -188,7 +189,7 @@ def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.6
     _pyplot().close(fig)
     buffer.seek(0)
     image = Image.open(buffer).convert("RGB").quantize(
-        PALETTE_COLOURS, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+        colours, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
     path.parent.mkdir(parents=True, exist_ok=True)
     image.save(path, format="PNG", optimize=True)
     return path
