@@ -24,6 +24,7 @@ def test_figure_is_the_bound_curve():
     p = CASE.variant_params("cucker_smale")
     (figure,) = CASE.figures(p)
     assert figure["y"] == "velocity_variance" and figure["x"] == "t"
+    # same operations: the bound at t = 0 is velocity_variance(v0) times exp(-0) = 1, twice
     assert figure["data"]["y"][0] == velocity_variance(CASE.initial_state(p)[1])
 
 

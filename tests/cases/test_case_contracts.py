@@ -280,6 +280,7 @@ def _capped_verdict(case, p, formulation, integrator, row):
     derived, _ = case.tolerance(p, integrator, row["nominal_order"], row["dt"], formulation,
                                 settings)
     from refsim.verdicts import UNRESOLVED_FRACTION
+    # same operations: case.tolerance on the same inputs (stored through an exact repr)
     checks = {"tolerance is the derived bound": row["tolerance"] == derived,
               "derived bound not below half the motion":
                   derived >= UNRESOLVED_FRACTION * case.motion_scale(p),

@@ -64,6 +64,7 @@ def test_pivot_holds_the_rod_end_at_the_origin():
                                      [0.0, 0.0, 0.5 * p["length"]])
     # x = anchor + R c in generalized coordinates: round-off only (a few eps of L)
     assert np.max(np.abs(top)) < 1e-14 * p["length"]
+    # exact zeros: hinge about y, every x, z term of w is a product with an exact 0
     assert np.max(np.abs(obs["w"][:, 0, [0, 2]])) == 0.0  # w stays along world y
 
 

@@ -21,6 +21,7 @@ def _momentum(m, v):
 def test_head_on_outcomes_are_the_textbook_numbers(variant, expected):
     v_after, w_after = PAIRS.outcome(PAIRS.variant_params(variant))
     np.testing.assert_allclose(v_after[:, 0], expected, atol=1e-15)
+    # exact zeros: head-on along x, every y, z and spin term is a product with an exact 0
     assert not np.any(v_after[:, 1:]) and not np.any(w_after)
 
 
@@ -54,7 +55,9 @@ def test_cradle_outcome_passes_the_striker_velocity_to_the_last_sphere():
     p = CRADLE.variant_params("cradle")
     x0, v0, m, w0 = CRADLE.initial_state(p)
     v1, _ = CRADLE.outcome(p)
+    # exact: the outcome swaps copies of v0 (striker <-> last sphere), no arithmetic
     assert v1[-1, 0] == p["speed"] and not np.any(v1[:-1])
+    # exact: one nonzero term m v plus exact zeros, whatever the order or fusing of the sum
     np.testing.assert_array_equal(_momentum(m, v1), _momentum(m, v0))
     assert np.sum(m * np.sum(v1 * v1, axis=1)) == np.sum(m * np.sum(v0 * v0, axis=1))
 

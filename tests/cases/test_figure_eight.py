@@ -31,6 +31,7 @@ def run(p, integrator, dt, every):
 
 def test_initial_conditions_are_the_choreography():
     x, v = initial_state()
+    # exact: x_2 is np.negative(x_1) and both v_1, v_2 the same product -0.5 v_3
     np.testing.assert_array_equal(x[0], -x[1])
     np.testing.assert_array_equal(v[0], v[1])
     np.testing.assert_array_equal(total_momentum(v, MASSES), 0.0)  # -v3/2 twice plus v3

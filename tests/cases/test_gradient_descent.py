@@ -16,6 +16,7 @@ def test_euler_contraction_is_one_minus_h_lambda():
     """Forward Euler's factor per step is 1 - h lambda exactly: R(z) = 1 + z."""
     stepper, h = get_first_order("explicit_euler"), 0.013
     lam = np.array(CASE.rates(CASE.variant_params("default")))
+    # exact: R(z) = 1 z^0 + 1 z^1 with z^0 = 1, z^1 = z; 1 + (-(h lam)) rounds as 1 - h lam
     assert np.all(stepper.stability(-h * lam).real == 1.0 - h * lam)
     implicit = get_first_order("implicit_euler").stability(-h * lam).real
     assert np.allclose(implicit, 1.0 / (1.0 + h * lam), rtol=4 * np.finfo(float).eps)

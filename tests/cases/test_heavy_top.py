@@ -113,6 +113,7 @@ def test_refsim_meets_the_case_tolerance_on_every_default_variant():
 def test_sleeping_threshold_formula_and_bisection_on_refsim():
     p = CASE.variant_params("sleeping_stable")
     i1p = p["I1"] + p["mass"] * p["length"] ** 2
+    # same operations: pivot_moments computes I1 + M l^2 in this order
     assert pivot_moments(p)[0] == i1p
     assert (p["I3"] * sleeping_threshold(p)) ** 2 == pytest.approx(
         4 * i1p * p["mass"] * p["g"] * p["length"], rel=1e-14)

@@ -20,6 +20,7 @@ def test_hydrostatic_tank_settles_to_rho_g_h():
     assert row["err_max"] <= 0.05
     assert row["density_drift"] < 0.01
     assert row["velocity_max"] < 0.05  # of sqrt(g H): at rest up to acoustic noise
+    # same operations: identical rows (no particle left) of one einsum, the same sum each
     assert row["mass_drift"] == 0.0
 
 

@@ -68,6 +68,7 @@ def test_default_variant_references_start_state():
     scene = CASE.scene(p)
     ref = CASE.reference(p, np.array([0.0, CASE.t_end(p)]))
     bodies = scene.part(Particles)
+    # same operations: two_body_state at t = 0 both times (E = 0 exactly; elementwise ufuncs)
     np.testing.assert_array_equal(ref["x"][0], bodies.position)
     assert np.all(bodies.position[:, 2] == 0) and np.all(bodies.velocity[:, 2] == 0)
 

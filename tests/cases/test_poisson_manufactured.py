@@ -91,6 +91,7 @@ def test_polynomial_is_its_own_discrete_solution():
     inner = (slice(1, -1),) * dim
     gap = np.max(np.abs((lap.apply(u) - f)[inner]))
     assert gap <= 4 * (2 * dim + 1) * EPS * 4 * dim / h ** 2
+    # same operations: exact_discrete is 1.0 * continuum(p), the function u came from
     assert np.array_equal(CASE.exact_discrete(p), u)
 
 
@@ -117,6 +118,7 @@ def test_engine_path_without_the_job(method):
     observed = CASE.observables(p, stacked)
     error = CASE.error(p, observed, CASE.reference(p, stacked["t"]))
     tol, _ = CASE.tolerance(p, "steady", 0, 1.0, method, sim.settings())
+    # exact: the zero initial guess against the reference's zeros before the solve
     assert error[0] == 0.0 and last["residual"] <= p["rtol"]
     assert CASE.residual_error(p, last["grid.u"]) <= tol
     assert np.array_equal(last["grid.f"], scene.part(Grid).fields["f"])

@@ -134,6 +134,7 @@ def test_angle_error_reads_exact_orientation_as_zero_and_a_known_offset_as_its_a
     exact = CASE.exact_orientation(p, t)
     observed = CASE.observables(p, _observation(p, -exact, t))  # -q: the same rotation
     assert np.max(observed["angle_error"]) < 1e-7  # atan2 of a round-off vector part
+    # same operations: w is spin_vector(p) tiled, minus spin_vector(p): x - x = 0
     assert np.max(observed["w_error"]) == 0.0
     offset = quat_multiply(rotation_quaternion([0.0, 0.02, 0.0]), exact) * 1.5  # off-unit
     observed = CASE.observables(p, _observation(p, offset, t))
@@ -208,6 +209,7 @@ def test_orientation_drift_is_the_largest_reported_defect():
     obs["orientation_defect"] = discrete_defect("matrix_printed", 0.01, p["spin"], [[0], [1], [2]])
     metrics = CASE.extra_metrics(p, obs, CASE.observables(p, obs), CASE.reference(p, t))
     assert metrics["orientation_drift"] == pytest.approx(1.0001 ** 2 - 1, rel=1e-12)
+    # same operations: w is spin_vector(p) tiled, minus spin_vector(p): x - x = 0
     assert metrics["w_drift"] == 0.0
 
 

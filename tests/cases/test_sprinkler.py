@@ -5,6 +5,7 @@ import pytest
 from refsim_adapters.planted_defects.checks import job_error, job_uncaught
 from refsim_cases.emitter.sprinkler import CASE
 from refsim.models import emitter as em
+from ulp import assert_ulp
 
 
 def test_reference_counts_are_rate_times_time():
@@ -13,6 +14,7 @@ def test_reference_counts_are_rate_times_time():
     ref = CASE.reference(p, t)
     # alive: rate x min(t, lifetime), to one particle (the floor of each end)
     assert np.all(np.abs(ref["alive"] - p["rate"] * np.minimum(t, p["lifetime"])) <= 1.0)
+    # exact: integer-valued doubles
     assert ref["emitted"][-1] == p["rate"] * p["duration"] + 1
 
 
@@ -20,7 +22,10 @@ def test_first_order_tolerance_is_the_exact_lag_plus_round_off():
     p = CASE.variant_params("default")
     tol_euler, _ = CASE.tolerance(p, "explicit_euler", 1, 0.01)
     tol_rk4, reason = CASE.tolerance(p, "rk4", 4, 0.01)
-    assert tol_euler - tol_rk4 == 0.5 * p["g"] * 0.01 * p["lifetime"]
+    # (lag + roundoff) - roundoff is not the same arithmetic as lag: the sum rounds once and
+    # the difference once more, each by half an ulp of lag (roundoff < 1e-11 << lag): 1 ulp
+    assert_ulp(tol_euler - tol_rk4, 0.5 * p["g"] * 0.01 * p["lifetime"], 1,
+               "the first-order lag added to the round-off term, then subtracted back")
     assert tol_rk4 < 1e-11 and "round-off" in reason
     assert CASE.order_meaningful is False
     # floor(rate L h) + 1 with L h = lifetime = 0.5 s (h divides it): 25 + 1

@@ -57,6 +57,27 @@ def in_house(scene, integrator, dt, steps):
     return x.reshape(-1, 3), v.reshape(-1, 3)
 
 
+def in_house_step(masses, integrator, x, v, dt):
+    """One step of refsim's stepper `integrator` from (x, v) (n, 3) on the same kernel."""
+    stepper, system = get_integrator(integrator), PairSystem(masses)
+    state = stepper.start(system, 0.0, x.ravel().copy(), v.ravel().copy(), dt)
+    x1, v1 = stepper.output(system, dt, stepper.step(system, 0.0, state, dt), dt)
+    return x1.reshape(-1, 3), v1.reshape(-1, 3)
+
+
+def engine_states(engine, scene, integrator, variant, period, steps):
+    """The engine's (x, v) before its first step and after each of `steps` single steps of
+    period / steps, stacked (steps + 1, n, 3)."""
+    sim = engine.build(scene, period / steps, integrator, variant)
+    states = [sim.observe()]
+    for _ in range(steps):
+        sim.step(1)
+        states.append(sim.observe())
+    assert sim.failure is None
+    sim.close()
+    return np.array([o["x"] for o in states]), np.array([o["v"] for o in states])
+
+
 def run(engine, scene, integrator, variant, period, steps):
     sim = engine.build(scene, period / steps, integrator, variant)
     sim.step(steps)

@@ -49,11 +49,13 @@ def test_every_particle_on_its_exact_discrete_path(engine, integrator, dt, formu
     bound, _ = EMITTER.tolerance(P, "rk4", 4, dt)
     assert np.abs(obs["x"][live] - xe).max() <= bound
     assert np.abs(obs["v"][live] - ve).max() <= bound
+    # same operations: the engines' births are birth_steps(...) * dt on the host
     assert np.array_equal(obs["birth"][live], em.birth_steps(e, dt, ids, formulation) * dt)
     assert settings["dtype"] == "float64" and settings["capacity"] == obs["id"].shape[1]
     if same_as:
         ref, _ = run(same_as, P, integrator, dt, formulation, chunks)
         for key in ("id", "birth", "emitted"):  # the same schedule, slot for slot
+            # same operations: ids and counts are integers, births birth_steps * dt on either host
             assert np.array_equal(obs[key], ref[key], equal_nan=True), key
         # the same stepper arithmetic on the same numbers: equal to round-off
         assert np.abs(obs["x"] - ref["x"]).max() <= bound

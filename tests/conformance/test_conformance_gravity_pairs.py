@@ -29,14 +29,17 @@ from gravity_scenes import (
     ORDER_SLACK,
     TWO_PI,
     energy_and_l,
+    engine_states,
     figure_eight,
     fitted_orders,
-    in_house,
+    in_house_step,
     kepler,
 )
 from installed_engines import installed
 
 from refsim.engine import IntegratorInfo
+from refsim.models.nbody_gravity import pair_accelerations
+from refsim.scene.particles import Particles
 
 # -- the group's claim ----------------------------------------------------------------------------
 # (engine, integrator, variant, the order its settings state). MuJoCo's is its default
@@ -62,41 +65,70 @@ def test_group_claims_gravity_scenes_and_states_its_cost(engine, integrator, var
     assert IntegratorInfo.of(s).order == order
 
 
-# -- agreement with the in-house steppers, bit for bit --------------------------------------------
+# -- agreement with the in-house steppers, step by step ------------------------------------------
 # (engine, integrator, variant, the in-house stepper it is, Kepler masses, measured).
 KICK_DRIFT = [
     # Masses 0.5 (a power of two): MuJoCo's qacc = (m a) / m is exactly a, and its Euler update
     # (v += h qacc, free-joint position += h v) is refsim's symplectic_euler arithmetic.
     # implicit/implicitfast solve nothing here (no damping, zero spin). With masses 0.75/0.25
     # the division leaves 1 ulp: 3e-16 after 1000 steps.
-    *[("mujoco", integrator, variant, "symplectic_euler", (0.5, 0.5), "bit for bit")
-      for integrator in ("symplectic_euler", "implicit", "implicitfast")
+    *[("mujoco", integrator, variant, "symplectic_euler", (0.5, 0.5),
+       "bit for bit on x86-64") for integrator in ("symplectic_euler", "implicit", "implicitfast")
       for variant in ("", "passive_callback")],
     # Masses 0.5 (powers of two): Bullet's f / m returns a exactly, and its step (v += h a,
     # x += h v) is refsim's symplectic_euler arithmetic (masses 0.75/0.25 leave 1 ulp in the
     # division: 3e-16 after 1000 steps).
-    ("pybullet", "symplectic_euler", "", "symplectic_euler", (0.5, 0.5), "bit for bit"),
+    ("pybullet", "symplectic_euler", "", "symplectic_euler", (0.5, 0.5), "bit for bit on x86-64"),
     # pymunk drifts x += h v, then update_velocity adds h (0 + a(x_{k+1})) to v * 1.0^h:
     # refsim's symplectic_euler_dk arithmetic, any masses (the acceleration is added as such,
     # no f / m).
-    ("pymunk", "symplectic_euler_dk", "", "symplectic_euler_dk", (0.75, 0.25), "bit for bit"),
+    ("pymunk", "symplectic_euler_dk", "", "symplectic_euler_dk", (0.75, 0.25),
+     "bit for bit on x86-64"),
 ]
+
+
+def _one_step_bounds(masses, stepper, x, v, dt, x1_engine):
+    """Elementwise bounds on |engine - refsim| after one step from the same (x, v).
+
+    Not bit for bit on every machine: each update u + h w is one product and one sum in numpy
+    (two roundings) and in the engine's compiled code, which a compiler may fuse into one
+    multiply-add (aarch64 compilers contract by default); the two results are within 1.5 eps
+    (|u| + h |w|) of each other, bounded here by 2 eps. The accelerations are the same kernel
+    on the same positions (kick-drift), or on drifted positions that differ by that rounding
+    (drift-kick: the difference of the two kicks, h |a(x1_engine) - a(x1_refsim)|, is added as
+    evaluated). A wrong force, mass or step moves a state by many orders of magnitude more."""
+    def accel(y):
+        return pair_accelerations(y, masses)
+    if stepper == "symplectic_euler":  # kick, then drift with the new velocity
+        a = accel(x)
+        bound_v = 2 * EPS * (np.abs(v) + dt * np.abs(a))
+        v1 = v + dt * a
+        return 2 * EPS * (np.abs(x) + dt * np.abs(v1)) + dt * bound_v, bound_v
+    x1 = x + dt * v  # drift, then kick at the drifted positions
+    a = accel(x1)
+    bound_v = 2 * EPS * (np.abs(v) + dt * np.abs(a)) + dt * np.abs(accel(x1_engine) - a)
+    return 2 * EPS * (np.abs(x) + dt * np.abs(v)), bound_v
 
 
 @pytest.mark.parametrize("orbit", ["kepler", "figure_eight"])
 @pytest.mark.parametrize("engine,integrator,variant,stepper,masses,measured", [
     pytest.param(*row, id="-".join(filter(None, row[:3]))) for row in KICK_DRIFT])
-def test_engine_step_is_refsim_stepper_bit_for_bit(engine, integrator, variant, stepper,
-                                                   masses, measured, orbit):
+def test_engine_step_is_refsim_stepper_to_round_off(engine, integrator, variant, stepper,
+                                                    masses, measured, orbit):
     """1000 steps over one period of the Kepler orbit (e = 0.5, KICK_DRIFT's masses) and of the
-    figure-eight (masses 1): the engine's positions and velocities equal refsim's stepper on the
-    same kernel bit for bit (measured)."""
+    figure-eight (masses 1), one at a time: from the engine's own state before each step,
+    refsim's stepper on the same kernel gives the engine's state after it to the rounding of
+    one (possibly fused) update, `_one_step_bounds` (measured: KICK_DRIFT's last column)."""
     scene, period = ((kepler(0.5, masses=masses), TWO_PI) if orbit == "kepler"
                      else (figure_eight(), EIGHT_PERIOD))
-    steps = 1000
-    obs = gravity_scenes.run(installed(engine), scene, integrator, variant, period, steps)
-    x, v = in_house(scene, stepper, period / steps, steps)
-    assert np.array_equal(obs["x"], x) and np.array_equal(obs["v"], v)
+    steps, m = 1000, scene.part(Particles).mass
+    xs, vs = engine_states(installed(engine), scene, integrator, variant, period, steps)
+    dt = period / steps
+    for k in range(steps):
+        x1, v1 = in_house_step(m, stepper, xs[k], vs[k], dt)
+        bound_x, bound_v = _one_step_bounds(m, stepper, xs[k], vs[k], dt, xs[k + 1])
+        assert np.all(np.abs(xs[k + 1] - x1) <= bound_x), (k, xs[k + 1] - x1, measured)
+        assert np.all(np.abs(vs[k + 1] - v1) <= bound_v), (k, vs[k + 1] - v1, measured)
 
 
 # -- orders against the exact orbit ---------------------------------------------------------------

@@ -72,7 +72,7 @@ def test_pair_outcome_is_exact(engine, variant, dt, over):
     if variant in HEAD_ON:
         assert v_final[:, 0] == pytest.approx(np.array(HEAD_ON[variant]) * p["speed"],
                                               abs=head_on_bound * p["speed"])
-        assert np.abs(v_final[:, 1:]).max() == 0.0  # stays on the x axis
+        assert np.abs(v_final[:, 1:]).max() == 0.0  # on the x axis: y, z terms are products with 0
 
 
 # -- momentum ------------------------------------------------------------------------------------

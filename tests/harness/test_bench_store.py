@@ -12,6 +12,7 @@ from refsim.cli.bench import run_bench
 from refsim.store.figures import NO_TOLERANCE, check_figures, figure_rows
 from refsim.report.build import write_report
 from refsim.store.results import KEY, load_definitions_list, load_results, row_key
+from ulp import assert_ulp
 from refsim.store.runs import open_run
 
 SPEED = {"us": 10.0, "ms": 4.0}  # what the tiny bench measures; a test slows it down
@@ -63,7 +64,7 @@ def test_rows_carry_the_figure_and_no_tolerance():
     assert all(r["status"] == "ok" and r["consistency"] == "" and math.isnan(r["tolerance"])
                and r["tol_reason"] == NO_TOLERANCE and math.isnan(r["err_max"]) for r in rows)
     assert rows[0]["us_per_step"] == 10.0 and rows[0]["engine_version"] == "0.1"
-    assert math.isnan(rows[1]["dt"]) and rows[1]["time_us"] == 4000.0
+    assert math.isnan(rows[1]["dt"]) and rows[1]["time_us"] == 4000.0  # 4.0 * 1e3: exact
     assert "time_column" not in rows[1] and "show" not in rows[1]
 
 
@@ -125,9 +126,14 @@ def test_inhouse_figures_have_distinct_keys_and_honest_times():
     # 1e4 pendulums at 2e7 pendulum-steps/s: one batch step takes 5e-4 s
     assert by_name[("rk4_batch_10000_pendulums", "rk4")]["us_per_step"] == pytest.approx(500.0)
     rk4 = by_name[("time_to_1e-08", "rk4")]
-    assert rk4["steps"] == 2000 and rk4["dt_found"] == 0.005 and rk4["time_us"] == 5000.0
+    # dt_found = 0.01 / 2: halving is exact, so the double nearest 0.005, bit for bit
+    assert rk4["steps"] == 2000 and rk4["dt_found"] == 0.005
+    # time_us = t * 1e6 of t = 0.005 s (inexact in binary): within half an ulp of 5000 before
+    # the product's own rounding adds another half
+    assert_ulp(rk4["time_us"], 5000.0, 1, "0.005 s times 1e6: two half-ulp roundings")
     assert rk4["vs_solve_ivp"] == pytest.approx(0.25)
     assert by_name[("time_to_1e-08", "dopri5_adaptive:1e-9")]["steps"] == 0
+    # 4000 us / 1000 spheres * 1e3: every step exact in binary (4.0, 4000.0)
     assert by_name[("contact_box_1000", "symplectic_euler")]["ns_per_sphere_step"] == 4000.0
 
 

@@ -67,6 +67,7 @@ def test_control_equals_refsim_bit_for_bit(case, variant, engine_variant, integr
     assert ref["status"] == ctl["status"] == "ok"
     assert set(ref["trajectory"]) == set(ctl["trajectory"])
     for name, values in ref["trajectory"].items():
+        # same operations: the control engine runs refsim's own code
         assert np.array_equal(values, ctl["trajectory"][name]), name
     for col in ("err_max", "err_final", "energy_drift", "settings"):
         assert ref[col] == ctl[col] or (ref[col] != ref[col] and ctl[col] != ctl[col]), col
@@ -78,6 +79,7 @@ def test_control_steps_a_rigid_body_as_refsim_bit_for_bit():
     for n in (1, 7, 100):
         ref.step(n), sim.step(n)
         o, r = sim.observe(), ref.observe()
+        # same operations: the control engine runs refsim's own code
         assert set(o) == set(r) and all(np.array_equal(o[k], r[k]) for k in r)
     assert sim.settings() == ref.settings()
 
@@ -106,6 +108,7 @@ def test_scene_defects_change_one_field():
     cloth = _scene("cloth_hang", "bending")
     before = cloth.part(SpringNetwork)
     net = DEFECTS["stiffness_plus_1pct"].scene(cloth).part(SpringNetwork)
+    # same operations: the defect's one product (IEEE products commute exactly)
     assert np.array_equal(net.stiffness, before.stiffness * 1.01)
     assert np.array_equal(net.dihedral_stiffness, before.dihedral_stiffness * 1.01)
     assert np.array_equal(net.rest_length, before.rest_length)
@@ -117,6 +120,7 @@ def test_longer_pivot_arm_keeps_the_body_on_its_pivot():
     scene = _scene("compound_pendulum", "default")
     old = scene.part(RigidPivots)
     new = DEFECTS["rest_length_plus_0.5pct"].scene(scene).part(RigidPivots)
+    # same operations: the defect's one product (IEEE products commute exactly)
     assert np.array_equal(new.body_point, old.body_point * 1.005)
     assert not np.array_equal(new.anchor, old.anchor)
     check_on_anchor(new, scene.part(RigidBodies))  # the body still starts on its (moved) pivot
@@ -142,6 +146,7 @@ def test_integrator_defects_run_another_tableau_under_the_claimed_name(defect, i
     # other integrators are left alone
     ref, sim = _sims(defect, "stiff_spring", "default", "midpoint")
     sim.step(10), ref.step(10)
+    # same operations: midpoint is left alone, the defect engine runs refsim's own code
     assert np.array_equal(sim.observe()["x"], ref.observe()["x"])
 
 
@@ -158,6 +163,7 @@ def test_time_off_by_one_reports_the_state_after_one_step_at_t0():
     ref.step(1)
     o, r = sim.observe(), ref.observe()
     assert o["t"] == 0.0 and r["t"] == ref.dt
+    # same operations: the same first step, reported one step late
     assert np.array_equal(o["x"], r["x"]) and np.array_equal(o["v"], r["v"])
 
 
@@ -166,6 +172,7 @@ def test_velocity_damping_scales_v_after_every_step():
     ref.step(1)
     sim.step(1)
     assert np.array_equal(sim.observe()["x"], ref.observe()["x"])
+    # same operations: the same step, then the defect's one product v * VELOCITY_KEEP
     assert np.array_equal(sim.observe()["v"], ref.observe()["v"] * VELOCITY_KEEP)
     sim.step(3)  # step(n) is n single steps, each damped
     assert sim.steps == 4 and sim.inner.steps == 4
@@ -177,6 +184,7 @@ def test_float32_state_rounds_after_every_step():
     sim.step(5), ref.step(5)
     o, r = sim.observe(), ref.observe()
     for name in ("x", "v"):
+        # exact: rounding a float32-representable double to float32 changes nothing
         assert np.array_equal(o[name], as_float32(o[name]))
         assert np.allclose(o[name], r[name], rtol=1e-6, atol=1e-6)
         assert not np.array_equal(o[name], r[name]) or np.array_equal(r[name],

@@ -216,6 +216,7 @@ def test_quick_run_is_an_ordinary_stored_run(quick_run):
     assert len(table) == 2 + 2 * len(stress_sweep.SWEEP_K) and not table.duplicated(KEY).any()
     limits = table[table.variant == "stability_limit"].set_index("integrator")
     se, ie = limits.loc["symplectic_euler"], limits.loc["implicit_euler"]
+    # same operations: limit_error's abs(measured - theory), theory 2.0
     assert se.err_max == abs(se.measured - 2.0) and se.err_max <= se.tolerance
     # the stored tolerance is where the printed verdict (stress.agrees) turns: just inside it
     # a measured limit agrees with the theory, just outside it does not
@@ -231,6 +232,7 @@ def test_quick_run_is_an_ordinary_stored_run(quick_run):
     damped = sweep[sweep.failure == "artificial_damping"]
     assert len(damped) and set(damped.status) == {"diverged"}
     assert damped.reason.str.startswith("artificial_damping").all()
+    # same operations: the store's abs(ratio - 1.0) on the same double (CSV repr is exact)
     assert np.array_equal(sweep.energy_drift, (sweep.energy_ratio - 1).abs(), equal_nan=True)
     definitions = {d["variant"]: d for d in load_definitions_list(run)}
     assert set(definitions) == set(table.variant)

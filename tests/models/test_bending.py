@@ -79,6 +79,7 @@ def test_forces_take_batch_axes(make):
     batch = np.stack([x, 1.1 * x, x + 0.2])
     forces = term.forces(batch.reshape(3, 1, -1, 3))
     for b in range(3):
+        # same operations per instance: elementwise ufuncs, reductions over the same last axes
         assert np.array_equal(forces[b, 0], term.forces(batch[b]))
 
 
@@ -88,6 +89,7 @@ def test_series_and_direct_quotient_agree_at_the_switch():
     t = np.array([1.0, np.nextafter(1.0, 2)])
     direct = (np.sin(t) - t * np.cos(t)) / t ** 3
     assert np.allclose(_sin_minus_t_cos_over_t3(t), direct, rtol=8 * EPS, atol=0)
+    # exact: the series at t = 0 is its constant 1/3 plus products with t^2 = 0
     assert _sin_minus_t_cos_over_t3(np.array([0.0]))[0] == 1 / 3
 
 
@@ -101,6 +103,7 @@ def test_straight_hinge_is_smooth():
     the forces there (bounds as above), and forces/Jacobians Lipschitz through theta = 0: a
     bend of s (m) moves them by <= C s with C the Jacobian's own size / length scale."""
     term, x = _straight_hinge()
+    # exact zeros: collinear nodes, theta = theta0 = 0: every force term is a product with 0
     assert np.all(term.forces(x) == 0)
     jac0 = term.jacobian(x).toarray()
     _check_derivative(jac0.reshape(3, 3, 3, 3), term.forces, x, 2.0)
@@ -116,6 +119,7 @@ def test_rest_angle_cone_raises_nothing():
     """theta0 != 0 at theta = 0: the cone's tip, force 0 and finite Jacobian (module doc)."""
     term, x = _straight_hinge()
     cone = HingeSet(term.nodes, term.k, np.array([0.3]), 3)
+    # exact zeros: the cone's tip returns force 0 by construction
     assert np.all(cone.forces(x) == 0)
     assert np.all(np.isfinite(cone.jacobian(x).toarray()))
 

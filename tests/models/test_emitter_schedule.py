@@ -61,6 +61,7 @@ def test_discrete_path_is_what_the_stepper_does(name):
 
 def test_spawn_draws_depend_on_seed_and_id_only():
     a = spawn_uniforms(4, np.arange(100))
+    # same operations: counter-based draws, the same seed and ids
     assert np.array_equal(a[40:60], spawn_uniforms(4, np.arange(40, 60)))
     assert not np.array_equal(a, spawn_uniforms(5, np.arange(100)))
     assert a.min() >= 0 and a.max() < 1 and abs(a.mean() - 0.5) < 0.05  # 300 draws: 3 sigma

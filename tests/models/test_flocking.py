@@ -67,6 +67,7 @@ def test_flock_system_batches_and_flattens():
     x, v = _state(1, n=5, batch=(3,))
     system = FlockSystem(Flocking(K=1.0, sigma=1.0, beta=0.25), 5)
     flat = system.accel(0.0, x.reshape(3, -1), v.reshape(3, -1)).reshape(x.shape)
+    # same operations: FlockSystem.accel reshapes and calls this function
     assert np.array_equal(flat, cucker_smale_accelerations(x, v, 1.0, 1.0, 0.25))
 
 

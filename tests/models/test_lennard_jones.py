@@ -79,6 +79,7 @@ def test_system_moves_a_2d_scene_in_its_plane():
     x[1, :2] = (1.0, 0.4)
     system = LennardJonesSystem(np.array([1.0, 2.0]), LennardJonesModel(), dim=2)
     a = system.accel(0.0, x.reshape(-1), np.zeros(6)).reshape(2, 3)
+    # exact zeros: z = 0 separations, every z term is a product with an exact 0
     assert np.all(a[:, 2] == 0.0)
     assert np.allclose(1.0 * a[0] + 2.0 * a[1], 0.0, atol=1e-12 * np.abs(a).max())
 
@@ -98,12 +99,18 @@ def test_part_refuses_bad_fields(fields, match):
 def test_forces_are_the_pair_list_sum_bit_for_bit(dim, box):
     """forces() sums in the cell list's sorted numbering; it must round exactly as the sum
     over neighbour_pairs (i < j, force g sep on j and -g sep on i, in pair order). The box
-    (4.9, 7.5) has a periodic axis of one cell: the full-shell passes."""
+    (4.9, 7.5) has a periodic axis of one cell: the full-shell passes.
+    Bit for bit by construction: the pair list below is written with forces()'s own operations
+    in its order (cell_list.squared_norm's elementwise (x^2 + z^2) + y^2, never fused; g; one
+    product per component; np.bincount's sequential sums), so only the summation order under
+    test can differ. (An einsum |sep|^2 here would fuse its multiply-adds on aarch64.)"""
     x = _cloud(60, dim, 6.0, 11)[None].repeat(2, axis=0)
     x[1] += 0.013
     model = LennardJonesModel(1.1, 1.0, 2.45, True, box)
     i, j, sep = model.pairs(x)
-    r2 = np.einsum("ij,ij->i", sep, sep)
+    r2 = sep[:, 0] * sep[:, 0] + sep[:, -1] * sep[:, -1]  # x + y in 2D, x + z in 3D, then y
+    if dim == 3:
+        r2 = r2 + sep[:, 1] * sep[:, 1]
     s2 = 1.0 / r2  # sigma = 1
     s6 = s2 * s2 * s2
     g = 24.0 * 1.1 * (2.0 * s6 * s6 - s6) / r2

@@ -119,6 +119,7 @@ def test_dense_jacobians_are_the_sparse_ones_over_the_masses():
     kx, kv = system.sparse_force_jacobians(0.0, x, v)
     ax, av = system.jacobians(0.0, x, v)
     inv_m = np.repeat(1.0 / system.masses, 3)[:, None]
+    # same operations: jacobians() returns inv_m * kx.toarray(), this product
     assert np.array_equal(ax, inv_m * kx.toarray())
     assert np.array_equal(av, inv_m * kv.toarray())
 

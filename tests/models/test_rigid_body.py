@@ -68,6 +68,7 @@ def test_accel_solves_the_world_frame_newton_euler_equations(formulation):
     residual = (inertia_w @ w_dot[..., None])[..., 0] + np.cross(w, (inertia_w @ w[..., None])
                                                                  [..., 0])
     assert np.max(np.abs(residual)) <= 1e3 * EPS  # O(1) entries, a few dozen roundings
+    # exact: the translational part is gravity broadcast, no arithmetic
     assert np.array_equal(a[:, :3], np.broadcast_to(system.gravity, (4, 3)))
 
 

@@ -79,4 +79,5 @@ def test_pressure_clamp_only_without_tension(tension):
         assert acc[0, 0] > 0 and acc[1, 0] < 0  # attraction
         assert acc[0, 0] == pytest.approx(-acc[1, 0], rel=1e-12)
     else:
+        # exact zeros: no tension, at rest, the pressure term is 0 (module doc)
         assert np.all(acc == 0.0)

@@ -114,6 +114,7 @@ def test_hinge_frames_hang_theta_zero_along_gravity_and_round_trip_the_start():
     bodies = (bob((0.6, 0.0, -0.8), (0.8, 0.0, 0.6)), bob((5.0, 1.0, 2.0), (1.0, 2.0, 3.0)))
     scene = Scene(parts=(Particles.of(bodies), Joints.of((ROD,))), gravity=G)
     frames = HingeFrames.from_scene(scene)
+    # exact: g - axis (g . axis) = g (a product with 0), |g| = sqrt(9.81^2) = 9.81, g / |g|
     np.testing.assert_array_equal(frames.d, [[0.0, 0.0, -1.0]])
     np.testing.assert_array_equal(frames.g_plane, [9.81])
     theta, omega = frames.initial_angles(scene.part(Particles).position, scene.part(Particles).velocity)
@@ -134,6 +135,7 @@ def test_hinge_frames_of_a_scene_without_rods_are_empty_index_arrays():
 
 def test_rod_length_errors_are_distance_minus_length_per_rod():
     scene = Scene(parts=(Particles.of((bob(),)), Joints.of((ROD,))), gravity=G)
+    # exact: |(0, 0, -1.5)| - 1 = 0.5, binary-exact values
     np.testing.assert_array_equal(rod_length_errors(scene, np.array([[0.0, 0.0, -1.5]])), [0.5])
 
 

@@ -93,6 +93,7 @@ def test_initial_state_round_trips_and_twist_stays_zero():
     # reference + (x - reference): two roundings of |x| <= 1 m
     assert np.abs(obs["x"] - x).max() <= 2 * EPS * np.abs(x).max()
     sim.step(2000)
+    # exact zeros: planar motion, every out-of-plane term is a product with an exact 0
     assert sim.failure is None and np.all(sim.twist_angles() == 0.0)
     assert np.all(sim.observe()["x"][:, 1] == 0.0)  # planar: no y force anywhere
 

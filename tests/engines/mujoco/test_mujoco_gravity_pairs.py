@@ -2,7 +2,8 @@
 own: its two formulations (xfrc_per_step, passive_callback) and their settings, the
 process-global callback, RK4 through the callback against refsim's rk4, and the xfrc pitfall in
 the conservation laws. The checks shared with pybullet and pymunk (the group's claim with the
-default formulation's cost and order, bit for bit against refsim's kick-drift, the return
+default formulation's cost and order, each step against refsim's kick-drift to the rounding
+of one update (bit for bit on x86-64), the return
 error's order on the Kepler orbit, energy and angular momentum under symplectic Euler, the
 figure-eight) are in tests/conformance/test_conformance_gravity_pairs.py;
 the scenes (Kepler from true anomaly pi/2, the figure-eight) in

@@ -315,6 +315,7 @@ def test_bodies_are_independent_and_in_order():
                              velocity=rigid.velocity[i:i + 1],
                              angular_velocity=rigid.angular_velocity[i:i + 1])
         alone = _run(Scene(parts=single, gravity=(0, 0, -9.81)), "rk4", 1e-2, 1.0)
+        # same operations: MuJoCo's code on each free body's own 6x6 block (measured on x86-64)
         assert all(np.array_equal(together[k][i], alone[k][0]) for k in ("x", "v", "q", "w"))
 
 

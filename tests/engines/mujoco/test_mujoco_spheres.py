@@ -63,6 +63,7 @@ def test_head_on_outcome_is_within_the_calibration_residual(variant, engine_vari
     bound = residual * mu * v_rel * math.hypot(1 / m1, 1 / m2)
     assert row["err_max"] <= bound * 1.01
     assert row["err_max"] <= (0.004 if p["restitution"] == 1 else 0.07)
+    # exact zeros: head-on along x, every y, z term is a product with an exact 0
     assert np.abs(row["trajectory"]["v"][-1][:, 1:]).max() == 0.0  # stays on the x axis
 
 
@@ -292,6 +293,7 @@ def test_calibration_is_deterministic_and_cached():
     assert restitution_map(0.5, 1e-3, SE, d) is a  # cached per process
     restitution_map.cache_clear()
     b = restitution_map(0.5, 1e-3, SE, d)
+    # same operations: the same calibration, recomputed in this process
     assert b == a
     # B dt does not depend on dt (K dt^2 is fixed): one mapping at every step size
     assert restitution_map(0.5, 4e-3, SE, d).damping * 4e-3 == pytest.approx(

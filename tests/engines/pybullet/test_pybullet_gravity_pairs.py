@@ -1,8 +1,9 @@
 """pybullet's n-body gravity (adapters/pybullet_engine/groups/gravity_pairs.py), what is
 pybullet's own: free multibody bases pushed by applyExternalForce each step, and its settings.
-The checks shared with MuJoCo and pymunk (the group's claim and cost, bit for bit against
-refsim's symplectic_euler, order 1 on the Kepler orbit, energy and angular momentum, the
-figure-eight) are in tests/conformance/test_conformance_gravity_pairs.py; the scenes in
+The checks shared with MuJoCo and pymunk (the group's claim and cost, each step against
+refsim's symplectic_euler to the rounding of one update (bit for bit on x86-64), order 1 on the
+Kepler orbit, energy and angular momentum, the figure-eight) are in
+tests/conformance/test_conformance_gravity_pairs.py; the scenes in
 tests/conformance/gravity_scenes.py.
 pybullet is imported on purpose: CI must have every engine (fail, never skip).
 """

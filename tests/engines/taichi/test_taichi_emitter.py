@@ -39,6 +39,7 @@ def test_dense_emitter_many_births_per_slot_in_one_launch():
     obs, _ = _run("taichi", p, "velocity_verlet", dt, "corrected", (300, 1))
     ref, _ = _run("refsim", p, "velocity_verlet", dt, "corrected", (300, 1))
     for key in ("id", "birth", "emitted"):
+        # same operations: ids and counts are integers, births birth_steps * dt on either host
         assert np.array_equal(obs[key], ref[key], equal_nan=True), key
     bound, _ = EMITTER.tolerance(p, "rk4", 4, dt)
     assert np.abs(obs["x"] - ref["x"]).max() <= bound

@@ -43,6 +43,7 @@ def test_taichi_equals_refsim_over_the_default_run(integrator, dt):
     p = BOIDS.variant_params("cucker_smale")
     tai, settings = _run("taichi", p, integrator, dt)
     ref, _ = _run("refsim", p, integrator, dt)
+    # same operations: t = steps * dt in both Sims
     assert np.array_equal(tai["t"], ref["t"])
     n, psi, speed, state = _scales(p)
     steps = round(BOIDS.t_end(p) / dt)

@@ -24,6 +24,7 @@ def test_taichi_equals_refsim_on_kepler(integrator):
     bound = CASE._roundoff(p, dt)[0]
     oa, ob = a.observe(), b.observe()
     assert np.max(np.abs(oa["x"] - ob["x"])) <= bound
+    # exact zeros: a planar orbit, every z term is a product with an exact 0
     assert np.all(oa["x"][:, 2] == 0.0)
     assert a.settings()["dtype"] == "float64" and a.settings()["softening"] == 0.0
 

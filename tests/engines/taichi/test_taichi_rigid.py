@@ -296,4 +296,5 @@ def test_ten_thousand_bodies_speed_and_independence():
                       angular_velocity=bodies.angular_velocity[k:k + 1])
     alone = run(Scene(parts=(one,), gravity=(0.0, 0.0, -9.81)), 1e-3, steps, SE, EXP)
     for name in ("x", "v", "q", "w"):
+        # same operations: one compiled kernel, each body its own loop iteration, no coupling
         assert np.array_equal(obs[name][k], alone[name][0]), name

@@ -124,6 +124,7 @@ def test_runs_are_bit_identical_and_variants_agree():
         sim.step(200)
         o = sim.observe()
         runs.append(np.concatenate([o["x"].ravel(), o["v"].ravel(), o["rho"]]))
+    # same operations: per-particle gathers in a fixed order, no atomics, fast_math off
     assert all(np.array_equal(runs[0], other) for other in runs[1:])
 
 

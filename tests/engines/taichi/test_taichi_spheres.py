@@ -112,6 +112,7 @@ def test_cradle_reaches_the_ideal_outcome(dt, engine_variant):
     row = _run("cradle", dt, engine_variant)
     assert row["status"] == "ok" and (row["consistency"] == "consistent") and row["err_max"] == 0.0
     v_final = row["trajectory"]["v"][-1]
+    # exact: equal unit masses, e = 1: every impulse is binary-exact arithmetic
     assert v_final[:, 0].tolist() == [0.0, 0.0, 0.0, 0.0, p["speed"]]
     assert np.abs(v_final[:, 1:]).max() == 0.0
     assert row["momentum_drift"] == 0.0 and row["energy_drift"] == 0.0
@@ -160,6 +161,7 @@ def test_runs_are_bit_identical_and_launch_per_step_agrees():
                                        o["wall_impulse"]]))
         return np.array(out)
     first = trajectory("")
+    # same operations: serial time loop, fixed contact order, no atomics, fast_math off
     assert np.array_equal(first, trajectory(""))
     assert np.array_equal(first, trajectory("launch_per_step"))
 
