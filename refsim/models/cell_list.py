@@ -203,7 +203,8 @@ def _runs(first, count, run_start=None):
 
 
 def squared_norm(components):
-    """|sep|^2 with numpy's einsum rounding: d_x^2 + d_y^2, (d_x^2 + d_z^2) + d_y^2."""
+    """|sep|^2 in numpy's einsum order on x86-64: d_x^2 + d_y^2, (d_x^2 + d_z^2) + d_y^2 (on aarch64
+    einsum fuses multiply-adds: an ulp or two apart)."""
     out = components[0] * components[0]
     last = components[-1] * components[-1]
     out += last  # x + y in 2D, x + z in 3D

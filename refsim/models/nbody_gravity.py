@@ -25,9 +25,11 @@ def pair_accelerations(x, masses, G=1.0, softening=0.0, block_rows=None):
 
     Three paths, one law: two bodies (the default run's ~10^5 calls: least overhead), a few
     (n <= DENSE_MAX_BODIES: one dense (..., n, n, 3) pass), and many (`_blocked`: rows in
-    cache-sized blocks, per-axis separations, 1 / (r^2 sqrt r^2)). The first two are bit for
-    bit the original dense formula; the blocked one differs from it by round-off only (each
-    term to a few eps, the sum to ~n eps of sum_j |term|: tests/models/test_nbody_gravity.py).
+    cache-sized blocks, per-axis separations, 1 / (r^2 sqrt r^2)). The first two are the
+    original dense formula's operations (its doubles wherever numpy's r2 ** -1.5 rounds as
+    Python's: not on AVX-512, an ulp apart); the blocked one differs from it by round-off only
+    (each term to a few eps, the sum to ~n eps of sum_j |term|:
+    tests/models/test_nbody_gravity.py).
     `block_rows`: at most that many rows i per block (bounds the (..., b, n) temporaries;
     None: the cache-sized default, BLOCK_ELEMENTS pair entries per block)."""
     x = np.asarray(x, float)

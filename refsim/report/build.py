@@ -147,7 +147,9 @@ def _case_section(d, rows, series, target_error, out, style=None):
     title = f"{d['case']} / {d['variant']}"
     slug = title.replace(" / ", "-").replace("/", "_").replace(" ", "_").replace("=", "")
     compared = f" Compared: `{col}` of {observable} ({units})." if observable else ""
-    blocks = [("h2", title), ("p", f"{d['description']}.{compared}"), ("p", _work_line(rows))]
+    blocks = [("h2", title), ("p", f"{d['description']}.{compared}")]
+    if "wall_s" in rows:  # a bench's or a stress run's rows have no work column
+        blocks.append(("p", _work_line(rows)))
     if math.isfinite(target):  # a definition with no target error gets no recommendation
         blocks.append(("p", recommendation(rows, col, units, target)))
     ran = rows[np.isfinite(rows["dt"])]
