@@ -90,8 +90,10 @@ def scoreboard(table: pd.DataFrame, definitions, target_error=None) -> pd.DataFr
         col = d["tolerance_column"]
         target = target_error if target_error is not None else float(d["target_error"])
         for engine, sub in rows.groupby("engine", sort=False):
+            group = d.get("model_group") or model_group(definitions, d["case"])
             out.append({"case": f"{d['case']} / {d['variant']}", "engine": engine,
-                        "model_group": _group_of(definitions, d, model_group), "column": col, "target": target, "floor": float(d["error_floor"]),
+                        "model_group": group, "column": col, "target": target,
+                        "floor": float(d["error_floor"]),
                         **cell(sub, col, target)})
     board = pd.DataFrame(out)
     if board.empty:
@@ -99,12 +101,6 @@ def scoreboard(table: pd.DataFrame, definitions, target_error=None) -> pd.DataFr
     order = {g: k for k, g in enumerate(dict.fromkeys(board["model_group"]))}
     return board.sort_values("model_group", key=lambda g: g.map(order), kind="stable",
                              ignore_index=True)
-
-
-def _group_of(definitions, d, model_group) -> str:
-    if d.get("model_group"):
-        return d["model_group"]
-    return model_group(definitions, d["case"]) if hasattr(definitions, "stored") else "other"
 
 
 def _error_text(value: float, floor: float) -> str:

@@ -78,7 +78,7 @@ def _fallback(case_name: str, variant: str, key_params: str) -> dict:
 def model_group(definitions: Definitions, case_name: str) -> str:
     """A case's model group as the run stored it (`model_group` of its definition), else from
     today's registry, "other" for a case no longer known."""
-    for d in definitions.stored.values():
+    for d in getattr(definitions, "stored", {}).values():
         if d.get("case") == case_name and d.get("model_group"):
             return d["model_group"]
     try:
