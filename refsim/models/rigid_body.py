@@ -23,30 +23,57 @@ import numpy as np
 
 
 # -- small vector and quaternion helpers (rows, any leading axes) ---------------------------
-def cross(a, b):
-    """a x b over the last axis (faster than np.cross for many small rows; written into one
-    preallocated array: np.stack cost a third of a one-body step)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(_shape(a, b))
-    np.subtract(a1 * b2, a2 * b1, out=out[..., 0])
-    np.subtract(a2 * b0, a0 * b2, out=out[..., 1])
-    np.subtract(a0 * b1, a1 * b0, out=out[..., 2])
+# Each helper is one product of a row's outer product with a constant matrix (a bilinear map
+# written as its coefficients), so that a one-body call costs a few numpy calls instead of
+# one per term: on one body the per-call overhead of numpy (about 1 us a call) is the whole
+# cost of a step. Every coefficient is 0, 1, -1 (or 2 / |q|^2 applied once after), so each
+# output is the same products summed as the written-out formula; BLAS may sum the terms of a
+# four-term entry in another order (a last-bit difference from the written-out order).
+def _bilinear(pairs, size: int, outputs: int) -> np.ndarray:
+    """The (size^2, outputs) coefficients of sum c a_i b_j from {output: ((c, i, j), ...)}."""
+    out = np.zeros((size * size, outputs))
+    for k, terms in pairs.items():
+        for c, i, j in terms:
+            out[size * i + j, k] = c
     return out
 
 
-def _shape(a, b) -> tuple:
-    """The broadcast shape of a and b (np.broadcast_shapes costs more than the arithmetic of
-    a one-body step; equal shapes, the usual case, skip it)."""
-    return a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape)
+_CROSS = _bilinear({0: ((1, 1, 2), (-1, 2, 1)), 1: ((1, 2, 0), (-1, 0, 2)),
+                    2: ((1, 0, 1), (-1, 1, 0))}, 3, 3)
+# Hamilton product p (x) q of (w, x, y, z) rows
+_HAMILTON = _bilinear({
+    0: ((1, 0, 0), (-1, 1, 1), (-1, 2, 2), (-1, 3, 3)),
+    1: ((1, 0, 1), (1, 1, 0), (1, 2, 3), (-1, 3, 2)),
+    2: ((1, 0, 2), (-1, 1, 3), (1, 2, 0), (1, 3, 1)),
+    3: ((1, 0, 3), (1, 1, 2), (-1, 2, 1), (1, 3, 0))}, 4, 4)
+# R - I of a unit quaternion over 2 (rows of R flattened), then |q|^2 in the last column:
+# R = I + 2 / |q|^2 * (these nine), the rotation of q / |q| for any q != 0
+_ROTATION = _bilinear({
+    0: ((-1, 2, 2), (-1, 3, 3)), 1: ((1, 1, 2), (-1, 0, 3)), 2: ((1, 1, 3), (1, 0, 2)),
+    3: ((1, 1, 2), (1, 0, 3)), 4: ((-1, 1, 1), (-1, 3, 3)), 5: ((1, 2, 3), (-1, 0, 1)),
+    6: ((1, 1, 3), (-1, 0, 2)), 7: ((1, 2, 3), (1, 0, 1)), 8: ((-1, 1, 1), (-1, 2, 2)),
+    9: ((1, 0, 0), (1, 1, 1), (1, 2, 2), (1, 3, 3))}, 4, 10)
+_IDENTITY = np.eye(3).ravel()
+# [a]_x flattened: the matrix of b -> a x b, linear in a (3, 9)
+_SKEW = np.zeros((3, 9))
+for _k, (_i, _j) in enumerate(((2, 1), (0, 2), (1, 0))):  # [a]_x[i, j] = a_k, [j, i] = -a_k
+    _SKEW[_k, 3 * _i + _j], _SKEW[_k, 3 * _j + _i] = 1.0, -1.0
+
+
+def _outer(a, b):
+    """a_i b_j at i * len + j over the last axis (broadcast over the others)."""
+    prod = a[..., :, None] * b[..., None, :]
+    return prod.reshape(prod.shape[:-2] + (-1,))
+
+
+def cross(a, b):
+    """a x b over the last axis (broadcast over the others)."""
+    return _outer(a, b) @ _CROSS
 
 
 def skew(a):
     """[a]_x, (..., 3, 3): [a]_x b = a x b."""
-    zero = np.zeros(a.shape[:-1])
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    return np.stack([np.stack([zero, -a2, a1], -1), np.stack([a2, zero, -a0], -1),
-                     np.stack([-a1, a0, zero], -1)], axis=-2)
+    return (a @ _SKEW).reshape(a.shape[:-1] + (3, 3))
 
 
 def matvec(m, v):
@@ -54,29 +81,21 @@ def matvec(m, v):
     return (m @ v[..., None])[..., 0]
 
 
+def dot(a, b):
+    """a . b over the last axis, kept as a length-1 axis (..., 1)."""
+    return (a[..., None, :] @ b[..., :, None])[..., 0]
+
+
 def quaternion_multiply(p, q):
     """Hamilton product p (x) q of (w, x, y, z) rows."""
-    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
-    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    out = np.empty(_shape(p, q))
-    out[..., 0] = pw * qw - px * qx - py * qy - pz * qz
-    out[..., 1] = pw * qx + px * qw + py * qz - pz * qy
-    out[..., 2] = pw * qy - px * qz + py * qw + pz * qx
-    out[..., 3] = pw * qz + px * qy - py * qx + pz * qw
-    return out
+    return _outer(p, q) @ _HAMILTON
 
 
 def quaternion_to_matrix(q):
     """The rotation of q / |q| (homogeneous form divided by |q|^2: a rotation for any q != 0)."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    s = 2.0 / (w * w + x * x + y * y + z * z)
-    xx, yy, zz, xy, xz, yz = x * x, y * y, z * z, x * y, x * z, y * z
-    wx, wy, wz = w * x, w * y, w * z
-    out = np.empty(q.shape[:-1] + (3, 3))
-    out[..., 0, 0], out[..., 0, 1], out[..., 0, 2] = 1 - s * (yy + zz), s * (xy - wz), s * (xz + wy)
-    out[..., 1, 0], out[..., 1, 1], out[..., 1, 2] = s * (xy + wz), 1 - s * (xx + zz), s * (yz - wx)
-    out[..., 2, 0], out[..., 2, 1], out[..., 2, 2] = s * (xz - wy), s * (yz + wx), 1 - s * (xx + yy)
-    return out
+    terms = _outer(q, q) @ _ROTATION
+    rows = (2.0 / terms[..., 9:]) * terms[..., :9] + _IDENTITY
+    return rows.reshape(q.shape[:-1] + (3, 3))
 
 
 def matrix_to_quaternion(r):
@@ -148,14 +167,20 @@ class RigidBodySystem:
         return np.concatenate([v[..., :3], self.formulation.dinv(dx[..., 3:], v[..., 3:])],
                               axis=-1)
 
-    def angular_acceleration(self, r, w, torque=None):
-        """w' from I_w w' + w x (I_w w) = tau (see the module docstring)."""
+    def angular_acceleration(self, r, w, torque=None, body_torque=None):
+        """w' from I_w w' + w x (I_w w) = tau (see the module docstring); tau given in the
+        world frame (`torque`) or, for the orthogonal formulations, in the body frame
+        (`body_torque`, R^T tau)."""
         if self.formulation.orthogonal:
-            w_body = matvec(np.swapaxes(r, -1, -2), w)
+            w_body = (w[..., None, :] @ r)[..., 0, :]  # R^T w
             rhs = -cross(w_body, matvec(self.inertia, w_body))
             if torque is not None:
-                rhs = rhs + matvec(np.swapaxes(r, -1, -2), torque)
+                rhs = rhs + (torque[..., None, :] @ r)[..., 0, :]
+            if body_torque is not None:
+                rhs = rhs + body_torque
             return matvec(r, matvec(self.inertia_inv, rhs))
+        if body_torque is not None:
+            raise ValueError("body_torque needs an orthogonal formulation (R^T R = I)")
         inertia_w = world_inertia(r, self.inertia)
         rhs = -cross(w, matvec(inertia_w, w))
         if torque is not None:

@@ -34,6 +34,7 @@ import numpy as np
 
 from .rigid_body import (
     cross,
+    dot,
     matrix_to_quaternion,
     quaternion_multiply,
     quaternion_to_matrix,
@@ -46,30 +47,38 @@ SMALL_ANGLE = 1e-6  # below this |phi| the series limits replace the closed form
 #                     the guard only avoids 0 / 0 at phi = 0 (the limits are then exact to eps)
 
 
+_TINY = np.finfo(float).tiny  # the smallest normal float
+
+
 def _angle(phi):
-    return np.sqrt(np.sum(phi * phi, axis=-1))[..., None]
+    """|phi| as (..., 1)."""
+    return np.sqrt(dot(phi, phi))
 
 
 def quaternion_exp_half(phi):
-    """exp(phi / 2) as a unit quaternion (cos |phi|/2, sin(|phi|/2) phi / |phi|)."""
+    """exp(phi / 2) as a unit quaternion (cos |phi|/2, sin(|phi|/2) phi / |phi|). At phi = 0
+    the ratio's guard (|phi| floored at the smallest normal) multiplies phi = 0: the vector
+    part is 0, as the limit; below the floor sin(|phi|/2) / |phi| is 1/2 to round-off."""
     angle = _angle(phi)
-    sinc_half = 0.5 * np.sinc(angle / (2.0 * np.pi))  # sin(angle / 2) / angle, 1/2 at 0
-    return np.concatenate([np.cos(0.5 * angle), sinc_half * phi], axis=-1)
+    half = 0.5 * angle
+    ratio = np.sin(half) / np.maximum(angle, _TINY)
+    return np.concatenate([np.cos(half), ratio * phi], axis=-1)
 
 
 def dexp_inverse(phi, a):
-    """dexp^-1_phi a on so(3) as 3-vectors (module docstring)."""
-    angle = _angle(phi)
+    """dexp^-1_phi a on so(3) as 3-vectors (module docstring), with
+    phi x (phi x a) = phi (phi . a) - a |phi|^2."""
+    angle2 = dot(phi, phi)
+    angle = np.sqrt(angle2)
     half = 0.5 * np.maximum(angle, SMALL_ANGLE)
     coef = np.where(angle > SMALL_ANGLE, (1.0 - half / np.tan(half)) / (4.0 * half * half),
                     1.0 / 12.0)
-    phi_x_a = cross(phi, a)
-    return a - 0.5 * phi_x_a + coef * cross(phi, phi_x_a)
+    return a - 0.5 * cross(phi, a) + coef * (phi * dot(phi, a) - angle2 * a)
 
 
 def dcay_inverse(phi, a):
     """dcay^-1_phi a on so(3) as 3-vectors (module docstring)."""
-    return a - 0.5 * cross(phi, a) + 0.25 * phi * np.sum(phi * a, axis=-1, keepdims=True)
+    return a - 0.5 * cross(phi, a) + 0.25 * phi * dot(phi, a)
 
 
 def dpolar_inverse(phi, a):
@@ -80,7 +89,7 @@ def dpolar_inverse(phi, a):
     axial = np.where(angle > SMALL_ANGLE, (1.0 + safe * safe - ratio) / (safe * safe), 2 / 3)
     g = phi / ratio
     b = dexp_inverse(g, a)
-    return ratio * b + axial * phi * np.sum(phi * b, axis=-1, keepdims=True)
+    return ratio * b + axial * phi * dot(phi, b)
 
 
 def polar_factor(matrix):

@@ -80,6 +80,10 @@ class PivotedRigidSystem:
 
     def accel(self, t, x, v):
         r = self.rotation(x)
+        if self.formulation.orthogonal:  # R^T ((R c) x m g) = c x (R^T m g) when R^T R = I
+            weight_body = (self.weight[..., None, :] @ r)[..., 0, :]
+            return self._turning.angular_acceleration(
+                r, v, body_torque=cross(self.com_offset, weight_body))
         torque = cross(matvec(r, self.com_offset), self.weight)
         return self._turning.angular_acceleration(r, v, torque)
 
