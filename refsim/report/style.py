@@ -7,7 +7,6 @@ engine keeps its colour in every figure of a report and no engine name is writte
 """
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -126,17 +125,50 @@ def draw_band(ax, floor: float, axis: str) -> None:
                 color="#555555", transform=ax.get_yaxis_transform())
 
 
+_SPARE: dict = {}  # count -> (figure, axes) saved and free to draw again (one process's)
+
+
 def grid_figure(count: int):
-    """(figure, flat list of `count` axes) laid out COLUMNS wide; spare axes removed."""
-    plt = _pyplot()
+    """(figure, flat list of `count` axes) laid out COLUMNS wide; spare axes removed.
+
+    A figure of `count` axes that `save` wrote is drawn again, emptied, not made anew:
+    creating the report's 636 axes and their ~11,000 tick objects took a fifth of its
+    time; emptied axes keep their ticks, and their pixels are the same as new ones'."""
+    if count in _SPARE:
+        fig, axes = _SPARE.pop(count)
+        for ax in axes:
+            _empty(ax)
+        return fig, axes
+    from matplotlib.figure import Figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     cols = min(COLUMNS, count)
     rows = math.ceil(count / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(PANEL[0] * cols, PANEL[1] * rows),
-                             squeeze=False)
-    flat = list(axes.ravel())
+    fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows), dpi=DPI)
+    FigureCanvasAgg(fig)
+    flat = list(fig.subplots(rows, cols, squeeze=False).ravel())
     for ax in flat[count:]:
         fig.delaxes(ax)
+    fig.refsim_spare = (count, flat[:count])
     return fig, flat[:count]
+
+
+def _empty(ax) -> None:
+    """The axes as new for the plots here: no artists, legend, labels or title, linear
+    scales (their default locators and formatters), limits from the next data."""
+    from matplotlib.transforms import Bbox
+    for artist in [*ax.lines, *ax.patches, *ax.texts, *ax.collections]:
+        artist.remove()
+    if ax.get_legend() is not None:
+        ax.get_legend().remove()
+    ax.set_title("")
+    ax.set_xlabel("")
+    ax.set_ylabel("")
+    ax.set_xscale("linear")
+    ax.set_yscale("linear")
+    ax.dataLim = Bbox.null()  # as a new axes: no points, no smallest positive value
+    ax.ignore_existing_data_limits = True
+    ax.set_autoscale_on(True)
+    ax.set_prop_cycle(None)
 
 
 def _plain_log_labels(axis) -> None:
@@ -184,12 +216,20 @@ def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.6
     fig.subplots_adjust(left=left_in / width, right=1 - 0.15 / width, bottom=0.5 / height,
                         top=1 - top_in / height, wspace=0.75 * COLUMNS / width * 1.0,
                         hspace=0.9 / PANEL[1])
-    buffer = io.BytesIO()
-    fig.savefig(buffer, dpi=DPI, format="png")
-    _pyplot().close(fig)
-    buffer.seek(0)
-    image = Image.open(buffer).convert("RGB").quantize(
+    # drawn once on the Agg canvas and quantised from its pixels (savefig wrote an RGBA PNG
+    # that was decoded again); zlib level 6, not optimize (level 9): 8x faster to write, the
+    # PNG beside report.md 7 % larger; the HTML's WebP is the same pixels either way
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    fig.set_dpi(DPI)
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    canvas.draw()
+    image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw",
+                             "RGBA", 0, 1).convert("RGB").quantize(
         colours, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+    if hasattr(fig, "refsim_spare"):  # a grid_figure: drawn again by the next one
+        _SPARE[fig.refsim_spare[0]] = (fig, fig.refsim_spare[1])
+    else:
+        _pyplot().close(fig)
     path.parent.mkdir(parents=True, exist_ok=True)
-    image.save(path, format="PNG", optimize=True)
+    image.save(path, format="PNG", compress_level=6)
     return path
