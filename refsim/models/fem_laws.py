@@ -1,0 +1,286 @@
+"""Hyperelastic laws of the P1 finite elements (slide 001's strain measures, and Neo-Hookean),
+vectorised over elements: energy density Psi(F) (J/m^3), first Piola-Kirchhoff stress
+P = dPsi/dF (Pa) and its directional derivative dP = (dP/dF) : dF in closed form.
+
+F is (m, d, d); a law works in its own dimension d (2 for plane stress, 3 for tetrahedra and,
+through `PlaneStrain`, for triangles in plane strain). mu and lam are the law's Lame
+parameters (`lame_parameters`). Sources: Bonet & Wood, Nonlinear Continuum Mechanics for
+Finite Element Analysis (2008), ch. 5-6; Sifakis & Barbic, FEM Simulation of 3D Deformable
+Solids (SIGGRAPH 2012 course notes), sec. 3-5; Smith, de Goes & Kim, Stable Neo-Hookean Flesh
+Simulation (ACM TOG 2018).
+
+- "linear" (Cauchy small strain as slide 001 prints it): eps = 1/2 (F + F^T) - I,
+  Psi = mu eps:eps + lam/2 tr(eps)^2, P = sigma = 2 mu eps + lam tr(eps) I. Not rotation
+  invariant: a rigid rotation by theta gives eps = (cos theta - 1) I in 2D ((cos theta - 1)
+  (I - n n^T) about an axis n in 3D) and a spurious force.
+- "green" (St Venant-Kirchhoff): E = 1/2 (F^T F - I), S = 2 mu E + lam tr(E) I, P = F S,
+  Psi = mu E:E + lam/2 tr(E)^2.
+- "corotated": F = R S by polar decomposition (R from the SVD F = U Sigma V^T, R = U V^T, the
+  rotation-variant SVD: the last singular value takes the sign of det F, so R is a rotation
+  even for an inverted element); slide 001's eps = 1/2 (F~ + F~^T) - I with F~ = R^T F = S,
+  Psi = mu |S - I|^2 + lam/2 tr(S - I)^2 = mu sum (s_i - 1)^2 + lam/2 (sum s_i - d)^2,
+  P = R sigma(S - I) = 2 mu (F - R) + lam tr(S - I) R (Sifakis & Barbic eq. 3.4).
+- "neo_hookean": the stable Neo-Hookean energy of Smith et al. (2018, eq. 14) in d dimensions,
+  the energy pybullet's deformable world uses (btDeformableNeoHookeanForce, d = 3):
+  Psi = mu/2 (I_C - d) + lam/2 (J - alpha)^2 - mu/2 log(I_C + 1) - Psi(I),
+  I_C = |F|^2, J = det F, alpha = 1 + d mu / ((d + 1) lam) (3D: 1 + 3 mu / (4 lam), so that
+  P(I) = 0); P = mu (1 - 1/(I_C + 1)) F + lam (J - alpha) cof F, cof F = J F^-T. Its mu, lam
+  are Smith et al.'s reparametrisation of the material's Lame pair (mu_L, lam_L), chosen so
+  that the law linearises to linear elasticity at F = I: mu = (d + 1)/d mu_L,
+  lam = lam_L + (1 - 2/(d (d + 1))) mu_L (3D: 4/3 mu_L and lam_L + 5/6 mu_L). Psi(I) is
+  subtracted so that the rest energy is 0 (pybullet keeps it; forces are the same).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+LAW_NAMES = ("linear", "green", "corotated", "neo_hookean")
+
+
+def lame_parameters(youngs_modulus, poisson_ratio, plane_stress=False):
+    """(mu, lam) of E, nu: 3D (and plane strain) mu = E / (2 (1 + nu)),
+    lam = E nu / ((1 + nu)(1 - 2 nu)); plane stress lam* = E nu / (1 - nu^2) = 2 mu lam /
+    (lam + 2 mu) (the 2D law of a thin sheet, sigma_zz = 0: exact for small strain, the usual
+    membrane convention for the large-strain laws, as MuJoCo's flex uses)."""
+    e, nu = float(youngs_modulus), float(poisson_ratio)
+    mu = e / (2.0 * (1.0 + nu))
+    lam = e * nu / (1.0 - nu * nu) if plane_stress else e * nu / ((1.0 + nu) * (1.0 - 2 * nu))
+    return mu, lam
+
+
+def neo_hookean_parameters(mu_lame, lam_lame, d):
+    """(mu, lam, alpha) of the stable Neo-Hookean law from the Lame pair (module docstring)."""
+    mu = (d + 1) / d * mu_lame
+    lam = lam_lame + (1.0 - 2.0 / (d * (d + 1))) * mu_lame
+    if not lam > 0:
+        raise ValueError(f"material.poisson_ratio: the stable Neo-Hookean law needs lam = "
+                         f"lam_L + (1 - 2/(d(d+1))) mu_L > 0 (in plane stress nu > -1/2), "
+                         f"got lam = {lam:g}")
+    return mu, lam, 1.0 + d * mu / ((d + 1) * lam)
+
+
+def _t(a):
+    return np.swapaxes(a, -1, -2)
+
+
+def _tr(a):
+    return np.trace(a, axis1=-2, axis2=-1)
+
+
+def _ddot(a, b):
+    return np.sum(a * b, axis=(-2, -1))
+
+
+def _eye(d):
+    return np.eye(d)
+
+
+def rotation_variant_svd(f):
+    """U, s, Vt of F with det U = det V = 1: the last singular value carries det F's sign."""
+    u, s, vt = np.linalg.svd(f)
+    flip = np.linalg.det(u) * np.linalg.det(vt) < 0
+    if np.any(flip):
+        u, s = u.copy(), s.copy()
+        u[flip, :, -1] *= -1.0
+        s[flip, -1] *= -1.0
+    return u, s, vt
+
+
+def cofactor(f):
+    """cof F = J F^-T: 2D [[f11, -f10], [-f01, f00]]; 3D columns (c1 x c2, c2 x c0, c0 x c1)
+    of F's columns c_k. Linear in F in 2D, quadratic in 3D."""
+    if f.shape[-1] == 2:
+        return np.stack([np.stack([f[..., 1, 1], -f[..., 1, 0]], -1),
+                         np.stack([-f[..., 0, 1], f[..., 0, 0]], -1)], -2)
+    c = [f[..., :, k] for k in range(3)]
+    return np.stack([np.cross(c[1], c[2]), np.cross(c[2], c[0]), np.cross(c[0], c[1])], -1)
+
+
+def cofactor_differential(f, df):
+    """d(cof F) in the direction dF."""
+    if f.shape[-1] == 2:
+        return cofactor(df)
+    c = [f[..., :, k] for k in range(3)]
+    dc = [df[..., :, k] for k in range(3)]
+    pairs = ((1, 2), (2, 0), (0, 1))
+    return np.stack([np.cross(dc[i], c[j]) + np.cross(c[i], dc[j]) for i, j in pairs], -1)
+
+
+class Law:
+    """A hyperelastic law: name, dimension d, Lame parameters (mu, lam); subclasses give
+    energy_density(F), stress(F) and differential(F, dF) (dF of shape (m, k, d, d): k
+    directions per element; returns (m, k, d, d))."""
+
+    name = ""
+
+    def __init__(self, mu, lam, d):
+        self.mu, self.lam, self.d = float(mu), float(lam), int(d)
+
+    def tangent(self, f):
+        """dP/dF as (m, d, d, d, d): C[e, i, j, k, l] = dP_ij / dF_kl."""
+        d = self.d
+        units = np.eye(d * d).reshape(d * d, d, d)
+        dp = self.differential(f, np.broadcast_to(units, (len(f),) + units.shape))
+        return np.moveaxis(dp.reshape(len(f), d, d, d, d), (1, 2), (3, 4))
+
+    def describe(self) -> dict:
+        return {"law": self.name, "dimension": self.d, "mu": self.mu, "lam": self.lam}
+
+
+class Linear(Law):
+    name = "linear"
+
+    def strain(self, f):
+        return 0.5 * (f + _t(f)) - _eye(f.shape[-1])
+
+    def energy_density(self, f):
+        eps = self.strain(f)
+        return self.mu * _ddot(eps, eps) + 0.5 * self.lam * _tr(eps) ** 2
+
+    def stress(self, f):
+        eps = self.strain(f)
+        return 2.0 * self.mu * eps + self.lam * _tr(eps)[..., None, None] * _eye(self.d)
+
+    def differential(self, f, df):
+        return self.mu * (df + _t(df)) + self.lam * _tr(df)[..., None, None] * _eye(self.d)
+
+
+class Green(Law):
+    name = "green"
+
+    def strain(self, f):
+        return 0.5 * (_t(f) @ f - _eye(f.shape[-1]))
+
+    def _pk2(self, e):
+        return 2.0 * self.mu * e + self.lam * _tr(e)[..., None, None] * _eye(self.d)
+
+    def energy_density(self, f):
+        e = self.strain(f)
+        return self.mu * _ddot(e, e) + 0.5 * self.lam * _tr(e) ** 2
+
+    def stress(self, f):
+        return f @ self._pk2(self.strain(f))
+
+    def differential(self, f, df):
+        f = f[:, None]
+        de = 0.5 * (_t(df) @ f + _t(f) @ df)
+        return df @ self._pk2(self.strain(f)) + f @ self._pk2(de)
+
+
+class Corotated(Law):
+    name = "corotated"
+
+    def _polar(self, f):
+        u, s, vt = rotation_variant_svd(f)
+        return u @ vt, s, vt
+
+    def energy_density(self, f):
+        _, s, _ = rotation_variant_svd(f)
+        return self.mu * np.sum((s - 1.0) ** 2, -1) + 0.5 * self.lam * (np.sum(s, -1)
+                                                                        - self.d) ** 2
+
+    def stress(self, f):
+        r, s, _ = self._polar(f)
+        return 2.0 * self.mu * (f - r) + self.lam * (np.sum(s, -1) - self.d)[:, None, None] * r
+
+    def rotation_differential(self, r, s, vt, df):
+        """dR = R W, W skew with W S + S W = A - A^T, A = R^T dF (Sifakis & Barbic sec. 5):
+        2D w = (A - A^T)_10 / tr S; 3D axial(W) = (tr S I - S)^-1 axial(A - A^T), with
+        tr S I - S = V diag(tr S - s_i) V^T."""
+        a = _t(r) @ df
+        k = a - _t(a)
+        if self.d == 2:
+            w = k[..., 1, 0] / np.sum(s, -1)
+            zero = np.zeros_like(w)
+            skew = np.stack([np.stack([zero, -w], -1), np.stack([w, zero], -1)], -2)
+        else:
+            axial = np.stack([k[..., 2, 1], k[..., 0, 2], k[..., 1, 0]], -1)
+            inv = 1.0 / (np.sum(s, -1)[..., None] - s)
+            w = np.einsum("...ji,...j,...jk,...k->...i", vt, inv, vt, axial)
+            zero = np.zeros_like(w[..., 0])
+            skew = np.stack([np.stack([zero, -w[..., 2], w[..., 1]], -1),
+                             np.stack([w[..., 2], zero, -w[..., 0]], -1),
+                             np.stack([-w[..., 1], w[..., 0], zero], -1)], -2)
+        return r @ skew
+
+    def differential(self, f, df):
+        r, s, vt = (a[:, None] for a in self._polar(f))
+        dr = self.rotation_differential(r, s, vt, df)
+        trace = (np.sum(s, -1) - self.d)[..., None, None]
+        return (2.0 * self.mu * df + self.lam * _tr(_t(r) @ df)[..., None, None] * r
+                + (self.lam * trace - 2.0 * self.mu) * dr)
+
+
+class NeoHookean(Law):
+    name = "neo_hookean"
+
+    def __init__(self, mu_lame, lam_lame, d):
+        mu, lam, self.alpha = neo_hookean_parameters(mu_lame, lam_lame, d)
+        super().__init__(mu, lam, d)
+        self.rest_energy = 0.5 * lam * (1.0 - self.alpha) ** 2 - 0.5 * mu * np.log(d + 1.0)
+
+    def energy_density(self, f):
+        ic, j = _ddot(f, f), np.linalg.det(f)
+        return (0.5 * self.mu * (ic - self.d) + 0.5 * self.lam * (j - self.alpha) ** 2
+                - 0.5 * self.mu * np.log1p(ic) - self.rest_energy)
+
+    def stress(self, f):
+        ic, j = _ddot(f, f), np.linalg.det(f)
+        return (self.mu * (1.0 - 1.0 / (ic + 1.0)))[:, None, None] * f + (
+            self.lam * (j - self.alpha))[:, None, None] * cofactor(f)
+
+    def differential(self, f, df):
+        f = f[:, None]
+        ic, j, cof = _ddot(f, f), np.linalg.det(f), cofactor(f)
+        scale = lambda a: a[..., None, None]  # noqa: E731
+        return (scale(self.mu * (1.0 - 1.0 / (ic + 1.0))) * df
+                + scale(2.0 * self.mu * _ddot(f, df) / (ic + 1.0) ** 2) * f
+                + scale(self.lam * _ddot(cof, df)) * cof
+                + scale(self.lam * (j - self.alpha)) * cofactor_differential(f, df))
+
+
+class PlaneStrain(Law):
+    """A 3D law on triangles in plane strain: F padded to diag(F, 1) (eps_zz = 0), P and dP/dF
+    their in-plane blocks. Exact: the 3D energy of a prism deformed in its plane."""
+
+    def __init__(self, law3d: Law):
+        self.law, self.name = law3d, law3d.name
+        super().__init__(law3d.mu, law3d.lam, 2)
+
+    @staticmethod
+    def _pad(f, one):
+        out = np.zeros(f.shape[:-2] + (3, 3))
+        out[..., :2, :2] = f
+        out[..., 2, 2] = one
+        return out
+
+    def energy_density(self, f):
+        return self.law.energy_density(self._pad(f, 1.0))
+
+    def stress(self, f):
+        return self.law.stress(self._pad(f, 1.0))[..., :2, :2]
+
+    def differential(self, f, df):
+        return self.law.differential(self._pad(f, 1.0), self._pad(df, 0.0))[..., :2, :2]
+
+    def describe(self) -> dict:
+        return {**self.law.describe(), "plane": "strain (3D law, F_zz = 1)", "dimension": 2}
+
+
+_CLASSES = {"linear": Linear, "green": Green, "corotated": Corotated, "neo_hookean": NeoHookean}
+
+
+def make_law(strain, youngs_modulus, poisson_ratio, dim, plane="stress") -> Law:
+    """The law of a material's strain measure for elements of dimension `dim` (2: triangles
+    in plane `plane` "stress" or "strain"; 3: tetrahedra)."""
+    if strain not in _CLASSES:
+        raise ValueError(f"material.strain must be one of {list(LAW_NAMES)}, got {strain!r}")
+    if dim == 2 and plane == "strain":
+        return PlaneStrain(make_law(strain, youngs_modulus, poisson_ratio, 3))
+    mu, lam = lame_parameters(youngs_modulus, poisson_ratio, plane_stress=dim == 2)
+    return _CLASSES[strain](mu, lam, dim)
+
+
+def law_of(material, dim, plane="stress") -> Law:
+    return make_law(material.strain, material.youngs_modulus, material.poisson_ratio, dim,
+                    plane)
