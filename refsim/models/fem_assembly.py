@@ -1,0 +1,81 @@
+"""Sparse assembly of P1 element matrices: the sparsity pattern found once per mesh, then only
+the data filled (np.bincount over each entry's precomputed slot), as
+refsim.models.spring_jacobians does for springs.
+
+Element matrices (Sifakis & Barbic 2012, sec. 4.3; Bonet & Wood ch. 7), dofs node-major
+(node a, component i -> a d + i):
+- tangent stiffness K = -df/dx: K_e[(a, i), (b, k)] = V sum_jl grad phi_a,j C_ijkl grad phi_b,l
+  with C = dP/dF of the law (closed form, refsim.models.fem_laws); symmetric;
+- consistent mass M_e[(a, i), (b, k)] = rho V (1 + delta_ab) / ((d + 1)(d + 2)) delta_ik;
+- lumped mass: rho V / (d + 1) to each node of an element (the row sums of the consistent one).
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+
+class BlockPattern:
+    """The CSR pattern of matrices made of one (k dofs x k dofs) block per element, k = nodes
+    per element x `dofs` per node; `matrix(blocks)` sums blocks (m, k, k) into it."""
+
+    def __init__(self, cells, n_nodes: int, dofs: int):
+        cells = np.asarray(cells, np.int64)
+        self.size = int(n_nodes) * int(dofs)
+        self.element_dofs = (cells[:, :, None] * dofs + np.arange(dofs)).reshape(len(cells), -1)
+        k = self.element_dofs.shape[1]
+        rows = np.broadcast_to(self.element_dofs[:, :, None], (len(cells), k, k)).reshape(-1)
+        cols = np.broadcast_to(self.element_dofs[:, None, :], (len(cells), k, k)).reshape(-1)
+        unique, self.slot = np.unique(rows * self.size + cols, return_inverse=True)
+        self.slot = self.slot.reshape(-1)
+        self.indices = (unique % self.size).astype(np.int32)
+        counts = np.bincount(unique // self.size, minlength=self.size)
+        self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+        self.nnz = len(unique)
+
+    def matrix(self, blocks) -> sp.csr_matrix:
+        data = np.bincount(self.slot, weights=np.asarray(blocks).reshape(-1),
+                           minlength=self.nnz)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.size, self.size))
+
+
+def element_stiffness(elements, tangent):
+    """(m, (d+1) d, (d+1) d) blocks V G^T C G of the tangent C (m, d, d, d, d)."""
+    g = elements.grad  # (m, d + 1, d)
+    cg = np.einsum("mijkl,mbl->mijbk", tangent, g)
+    k = np.einsum("maj,mijbk->maibk", g, cg) * elements.volume[:, None, None, None, None]
+    size = (elements.d + 1) * elements.d
+    return k.reshape(elements.m, size, size)
+
+
+def consistent_mass_blocks(elements, density):
+    d = elements.d
+    local = (np.ones((d + 1, d + 1)) + np.eye(d + 1)) / ((d + 1) * (d + 2))
+    block = np.kron(local, np.eye(d))
+    return (density * elements.volume)[:, None, None] * block
+
+
+def lumped_masses(elements, density):
+    """(n,) node masses: rho V / (d + 1) from each element."""
+    share = np.repeat(density * elements.volume / (elements.d + 1), elements.d + 1)
+    return np.asarray(elements.scatter @ share).reshape(-1)
+
+
+class Assembler:
+    """Stiffness and mass matrices of an ElasticBody, on one pattern found once."""
+
+    def __init__(self, body):
+        self.body = body
+        self.pattern = BlockPattern(body.elements.cells, body.elements.n, body.d)
+
+    def stiffness(self, x) -> sp.csr_matrix:
+        """K = -df/dx at node positions x (n, d), (n d, n d) CSR."""
+        tangent = self.body.law.tangent(self.body.deformation_gradient(x))
+        return self.pattern.matrix(element_stiffness(self.body.elements, tangent))
+
+    def consistent_mass(self, density) -> sp.csr_matrix:
+        return self.pattern.matrix(consistent_mass_blocks(self.body.elements, density))
+
+    def lumped_mass(self, density) -> np.ndarray:
+        """(n,) node masses."""
+        return lumped_masses(self.body.elements, density)
