@@ -4,7 +4,9 @@ its material's law (refsim.models.fem_laws), in the body's own coordinates.
 Triangles live in their plane: local coordinates are X @ basis.T (basis of
 refsim.scene.meshes.mesh_plane: the x-y axes for a mesh in a z = const plane, so the local
 coordinates are the world's x, y exactly), d = 2; tetrahedra use world coordinates, d = 3.
-Energies in J, forces in N, node positions x (n, d) in m.
+Energies in J, forces in N, node positions x (n, d) in m. A material with plasticity gets the
+von Mises law of refsim.models.fem_plasticity around its elastic law; `commit(x)` stores the
+plastic strain reached at x.
 """
 from __future__ import annotations
 
@@ -28,12 +30,23 @@ class ElasticBody:
     def of(cls, mesh) -> ElasticBody:
         """The body of a TriangleMesh or TetMesh part."""
         from refsim.scene.meshes import TriangleMesh, mesh_plane
+        basis = offset = None
         if isinstance(mesh, TriangleMesh):
             basis, normal = mesh_plane(mesh.vertices, mesh.triangles)
             offset = (mesh.vertices[0] @ normal) * normal
             elements = Elements(mesh.vertices @ basis.T, mesh.triangles, mesh.thickness)
-            return cls(elements, law_of(mesh.material, 2, mesh.plane), basis, offset)
-        return cls(Elements(mesh.vertices, mesh.tetrahedra), law_of(mesh.material, 3))
+            law = law_of(mesh.material, 2, mesh.plane)
+        else:
+            elements, law = Elements(mesh.vertices, mesh.tetrahedra), law_of(mesh.material, 3)
+        if mesh.material.plasticity is not None:
+            from .fem_plasticity import VonMises
+            law = VonMises(law, mesh.material.plasticity, elements.m)
+        return cls(elements, law, basis, offset)
+
+    @property
+    def linear(self) -> bool:
+        """Forces affine in the positions: the linear (Cauchy) law without plasticity."""
+        return self.law.name == "linear" and not hasattr(self.law, "commit")
 
     def to_local(self, world):
         """(..., n, d) local coordinates of world points or vectors (..., n, 3)."""
@@ -62,6 +75,11 @@ class ElasticBody:
     def forces(self, x):
         """(n, d) internal elastic forces -dU/dx."""
         return self.elements.nodal_forces(self.stress(x))
+
+    def commit(self, x) -> None:
+        """Store the plastic strain of positions x (a plastic law only; no-op otherwise)."""
+        if hasattr(self.law, "commit"):
+            self.law.commit(self.deformation_gradient(x))
 
     def describe(self) -> dict:
         return {**self.law.describe(), "elements": self.elements.m, "nodes": self.elements.n,

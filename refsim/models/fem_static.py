@@ -54,7 +54,7 @@ def solve_static(body, loads, fixed, x0=None, rtol=1e-10, max_iter=50, steps=1,
 
 
 def _newton(body, assembler, x, free, loads, rtol, max_iter):
-    linear = body.law.name == "linear"
+    linear = body.linear
     for iteration in range(max_iter + 1):
         f_int = body.forces(x)
         residual = (f_int + loads).reshape(-1)[free]

@@ -12,6 +12,9 @@ refsim.models.spring_network. Forces on the free nodes (N):
 - optional Rayleigh damping f = -(alpha M + beta K(x)) v, alpha in 1/s, beta in s, with the
   lumped M and the tangent stiffness at the current positions (its x-derivative is left out
   of the Jacobians, as Baraff & Witkin leave out the damping direction's).
+Plasticity (refsim.models.fem_plasticity): the stress is the return from the committed plastic
+strain, stored per element in the system (`plastic_strain`) and updated by `commit(x)` after
+an accepted step (`advance` steps and commits; the steppers themselves have no post-step hook).
 Jacobians: df/dx = -K (the tangent, in world dofs: T^T K T with T the plane basis per node for
 triangles), df/dv = -(alpha M + beta K). One flat state at a time (no batch axes).
 """
@@ -58,7 +61,7 @@ class FemSystem:
         self.external = (mesh.loads + self.node_masses[:, None] * self.gravity)[self.free]
         self.free_dofs = np.flatnonzero(np.repeat(self.free, 3))
         self.to_local = _world_map(self.body, self.n_nodes)[:, self.free_dofs].tocsr()
-        self.linear = self.body.law.name == "linear"
+        self.linear = self.body.linear
         self.velocity_dependent = bool(self.alpha > 0 or self.beta > 0)
         self._rest = np.array(mesh.vertices, float)
 
@@ -133,6 +136,25 @@ class FemSystem:
 
     def kinetic_energy(self, v) -> float:
         return float(0.5 * np.sum(self.masses[:, None] * np.reshape(v, (-1, 3)) ** 2))
+
+    def commit(self, x) -> None:
+        """After an accepted step: store each element's plastic strain at x (a plastic
+        material; the steppers never call it, `advance` does)."""
+        self.body.commit(self.body.to_local(self.full_positions(x)))
+
+    def advance(self, stepper, t, state, h, n):
+        """n steps of `stepper` from time t, committing the plastic strain after each (as
+        MuJoCo updates its flex plasticity after the step); (t, state) as Integrator.advance.
+        """
+        for _ in range(n):
+            t, state = stepper.advance(self, t, state, h, 1)
+            self.commit(stepper.output(self, t, state, h)[0])
+        return t, state
+
+    @property
+    def plastic_strain(self):
+        """(m, 3, 3) per-element permanent strain (None for an elastic material)."""
+        return getattr(self.body.law, "plastic_strain", None)
 
     def state(self):
         """(x, v) flat: the mesh's rest positions and initial velocities of the free nodes."""
