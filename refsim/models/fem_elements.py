@@ -15,7 +15,7 @@ An element of d + 1 nodes x_0..x_d in d dimensions (rest positions X):
   t) or A_a / 3 (tetrahedra, face area A_a): the closed integral of sigma n split per node.
 Slide 001 prints the nodal force as f_i = Q sigma n_i: without the area weight (t |e|/2) and
 with unit normals, so forces on one element no longer sum to zero (`slide_printed_forces`
-runs it as printed, for comparison only).
+runs it as printed, for comparison only; docs/models.md#fem-the-printed-nodal-force).
 
 Element values are summed into nodes by one sparse product with the incidence matrix built
 once (`scatter`), never a loop over elements or nodes.

@@ -7,7 +7,7 @@ through `PlaneStrain`, for triangles in plane strain). mu and lam are the law's 
 parameters (`lame_parameters`). Sources: Bonet & Wood, Nonlinear Continuum Mechanics for
 Finite Element Analysis (2008), ch. 5-6; Sifakis & Barbic, FEM Simulation of 3D Deformable
 Solids (SIGGRAPH 2012 course notes), sec. 3-5; Smith, de Goes & Kim, Stable Neo-Hookean Flesh
-Simulation (ACM TOG 2018).
+Simulation (ACM TOG 2018). Summary and slips: docs/models.md#fem-elements-and-strain-measures.
 
 - "linear" (Cauchy small strain as slide 001 prints it): eps = 1/2 (F + F^T) - I,
   Psi = mu eps:eps + lam/2 tr(eps)^2, P = sigma = 2 mu eps + lam tr(eps) I. Not rotation
