@@ -7,6 +7,7 @@ engine keeps its colour in every figure of a report and no engine name is writte
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -138,13 +139,17 @@ def grid_figure(count: int):
         fig, axes = _SPARE.pop(count)
         for ax in axes:
             _empty(ax)
+        # a new figure's margins until save() sets them: the band's limits are computed
+        # through the axes' place on the figure (a last-bit difference moved a pixel)
+        import matplotlib
+        fig.subplots_adjust(**{k: matplotlib.rcParams["figure.subplot." + k] for k in
+                               ("left", "right", "bottom", "top", "wspace", "hspace")})
         return fig, axes
     from matplotlib.figure import Figure
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     cols = min(COLUMNS, count)
     rows = math.ceil(count / cols)
     fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows), dpi=DPI)
-    FigureCanvasAgg(fig)
+    _canvas_class()(fig)
     flat = list(fig.subplots(rows, cols, squeeze=False).ravel())
     for ax in flat[count:]:
         fig.delaxes(ax)
@@ -219,9 +224,8 @@ def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.6
     # drawn once on the Agg canvas and quantised from its pixels (savefig wrote an RGBA PNG
     # that was decoded again); zlib level 6, not optimize (level 9): 8x faster to write, the
     # PNG beside report.md 7 % larger; the HTML's WebP is the same pixels either way
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     fig.set_dpi(DPI)
-    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    canvas = fig.canvas if isinstance(fig.canvas, _canvas_class()) else _canvas_class()(fig)
     canvas.draw()
     image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw",
                              "RGBA", 0, 1).convert("RGB").quantize(
@@ -233,3 +237,65 @@ def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.6
     path.parent.mkdir(parents=True, exist_ok=True)
     image.save(path, format="PNG", compress_level=6)
     return path
+
+
+_MASKS: dict = {}  # (text, font, angle, dpi, antialiased) -> (coverage, left, bottom)
+_MASKS_MAX = 20000
+
+
+@functools.cache
+def _canvas_class():
+    """An Agg canvas whose renderer draws a text it drew before from a stored coverage mask.
+
+    Agg lays a text out and renders it glyph by glyph at every draw: a fifth of the report's
+    time for ~10,000 texts, most of them the same tick labels, legend entries and axis labels
+    again. A text is rendered once, at a whole-pixel origin, onto a transparent canvas of its
+    own; its alpha is its coverage, which draw_text_image blends in the text's colour as Agg
+    blends each glyph (overlapping glyphs combine alike). The text's origin is rounded to the
+    pixel (up to half a pixel off its unrounded place, as matplotlib before 3.8 drew it)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
+
+    class TextMaskRenderer(RendererAgg):
+        def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+            if ismath:
+                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+            key = (s, tuple(prop.get_family()), prop.get_style(), prop.get_variant(),
+                   prop.get_weight(), prop.get_stretch(), prop.get_size_in_points(),
+                   prop.get_file(), angle, self.dpi, bool(gc.get_antialiased()),
+                   *(str(getattr(mtext, g)()) for g in ("get_fontfeatures", "get_language")
+                     if hasattr(mtext, g)))
+            mask = _MASKS.get(key)
+            if mask is None:
+                if len(_MASKS) >= _MASKS_MAX:
+                    _MASKS.clear()
+                mask = _MASKS[key] = _coverage(self, gc, s, prop, angle, mtext)
+            coverage, left, bottom = mask
+            if coverage.size:  # y is downwards; draw_text_image's y is the mask's bottom
+                self._renderer.draw_text_image(coverage, round(x) + left, round(y) + bottom,
+                                               0, gc)
+
+    def _coverage(renderer, gc, s, prop, angle, mtext):
+        """(uint8 coverage, left, bottom) of `s` drawn at a whole-pixel origin."""
+        w, h, d = renderer.get_text_width_height_descent(s, prop, ismath=False)
+        reach = math.ceil(math.hypot(w, h + d)) + 4 + math.ceil(
+            renderer.points_to_pixels(prop.get_size_in_points()))  # ink's reach, with slack
+        own = RendererAgg(2 * reach + 1, 2 * reach + 1, renderer.dpi)
+        black = own.new_gc()
+        black.set_antialiased(gc.get_antialiased())
+        RendererAgg.draw_text(own, black, reach, reach, s, prop, angle, False, mtext)
+        alpha = np.asarray(own.buffer_rgba())[:, :, 3]
+        rows, cols = np.flatnonzero(alpha.any(axis=1)), np.flatnonzero(alpha.any(axis=0))
+        if not rows.size:
+            return np.zeros((0, 0), np.uint8), 0, 0
+        coverage = np.ascontiguousarray(alpha[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
+        return coverage, int(cols[0]) - reach, int(rows[-1]) + 1 - reach
+
+    class TextMaskCanvas(FigureCanvasAgg):
+        def get_renderer(self, *args, **kwargs):
+            renderer = super().get_renderer(*args, **kwargs)
+            if not isinstance(renderer, TextMaskRenderer):  # made anew for this size
+                renderer = self.renderer = TextMaskRenderer(renderer.width, renderer.height,
+                                                            renderer.dpi)
+            return renderer
+
+    return TextMaskCanvas

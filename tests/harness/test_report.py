@@ -39,6 +39,64 @@ def test_pareto_front_keeps_only_undominated_points():
     assert list(pareto_front(err, cost)) == [3, 1, 0]
 
 
+def test_a_text_drawn_from_its_stored_mask_is_the_text_agg_draws():
+    """refsim.report.style's canvas draws a text it drew before from its stored coverage.
+    At a whole-pixel origin (where it puts every text) the pixels are Agg's own (the same
+    glyph rasters, blended alike), at the first draw and from the stored masks at the
+    second; the same words at another angle, size or colour are their own text."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from refsim.report.style import _canvas_class
+
+    def pixels(canvas_class):
+        fig = Figure(figsize=(3, 2), dpi=72)  # 216 x 144 pixels
+        canvas = canvas_class(fig)
+        for x, y, size, angle, colour in [(5, 15, 7, 0, "k"), (5, 45, 8.5, 0, "#d62728"),
+                                          (200, 5, 7, 90, "#1f77b4"), (5, 110, 10, 0, "k")]:
+            fig.text(x, y, "1e-08 rk4 (p=4.00) ff", fontsize=size, rotation=angle,
+                     rotation_mode="anchor", color=colour, transform=None, ha="left",
+                     va="baseline")  # the origin at (x, y) pixels, rotated or not
+        canvas.draw()
+        first = np.asarray(canvas.buffer_rgba()).copy()
+        canvas.draw()
+        return first, np.asarray(canvas.buffer_rgba()).copy()
+
+    agg, _ = pixels(FigureCanvasAgg)
+    first, again = pixels(_canvas_class())
+    assert (agg[:, :, :3] < 128).any(axis=2).sum() > 300  # the texts are there
+    # one level at most, where glyphs overlap: Agg blends each glyph's 8-bit coverage into
+    # the pixel in turn, the mask holds their union rounded to 8 bits once (2 of 31,104
+    # pixels here); a wrong place, angle or size is tens of levels over many pixels
+    assert np.abs(first.astype(int) - agg).max() <= 1
+    np.testing.assert_array_equal(again, first)  # drawn from the stored masks
+
+
+def test_a_figure_drawn_again_is_the_figure_drawn_new(run_dir, tmp_path):
+    """A grid figure save() wrote is emptied and drawn again (refsim.report.style): each
+    case's convergence figure drawn into the other case's figure has the pixels it has
+    drawn into a new one (no line, band, label, limit or scale of the other's left)."""
+    from PIL import Image
+    from refsim.report import plots, style
+    table = load_results(run_dir)
+    table = table[np.isfinite(table["dt"])]
+    look = style.Style.of_table(table)
+
+    def draw(case):
+        rows = table[table["case"] == case]
+        path = plots.convergence(rows, "err_max", "m", tmp_path / "f.png", case, look)
+        return np.asarray(Image.open(path).convert("RGB"))
+
+    new = {}
+    for case in ("free_fall", "stiff_spring"):
+        style._SPARE.clear()
+        new[case] = draw(case)
+    (count, (fig, _)), = style._SPARE.items()
+    assert not np.array_equal(new["free_fall"], new["stiff_spring"])
+    for case in ("free_fall", "stiff_spring"):  # free_fall's limits are the wider
+        np.testing.assert_array_equal(draw(case), new[case])
+    assert style._SPARE[count][0] is fig  # the one figure, drawn again twice
+
+
 def test_markdown_has_every_case_tables_figures_and_orders(run_dir):
     md = (run_dir / "report.md").read_text()
     for section in ("## free_fall / default", "## stiff_spring / default"):
