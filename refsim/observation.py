@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from refsim.scene import (MOVING_KINDS, FluidBlock, Grid, Joints, Particles, RigidBodies,
-                          SpringNetwork, TriangleMesh)
+                          SpringNetwork, TetMesh, TriangleMesh)
 
 
 @dataclass(frozen=True)
@@ -75,7 +75,7 @@ OBSERVABLES: tuple[Observable, ...] = (
 
 def _counts(scene) -> dict[str, int]:
     networks = sum(len(n) for n in scene.parts_of(SpringNetwork))
-    meshes = sum(len(m) for m in scene.parts_of(TriangleMesh))
+    meshes = sum(len(m) for m in scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh))
     rigid, particles = scene.part(RigidBodies), scene.part(Particles)
     joints, fluid = scene.part(Joints), scene.part(FluidBlock)
     return {"n": len(rigid) if rigid is not None else len(particles or ()),

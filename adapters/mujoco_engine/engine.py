@@ -23,7 +23,8 @@ class MujocoEngine(Engine):
         "grids": grid_refusal_sentence(
             "mujoco", "it simulates multibody dynamics, with flex meshes for soft bodies"),
         "fluid": "mujoco does not simulate fluid",  # MuJoCo has no SPH
-        "meshes": "mujoco does not simulate meshes",
+        "meshes": "the mujoco adapter has no finite-element group yet (MuJoCo 4 flex "
+                  "elasticity: to come)",
         "emitter": "mujoco does not simulate emitter",
     }
 

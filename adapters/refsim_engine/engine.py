@@ -16,8 +16,7 @@ class RefsimEngine(Engine):
     reference = True  # the in-house reference simulator: listed and reported first
     refusals = {
         "rigid_shapes": "refsim has no frictional rigid-body contact (the slides' rigid-body "
-                        "model has none: Newton-Euler and the orientation only)",
-        "meshes": "refsim does not simulate meshes"}
+                        "model has none: Newton-Euler and the orientation only)"}
 
     def version(self) -> str:
         from refsim import __version__

@@ -3,7 +3,7 @@ refsim.integrators: accel, dense `jacobians` (small meshes) and `sparse_force_ja
 (Baraff-Witkin's sparse path), with lumped masses.
 
 The state holds the FREE nodes' world positions and velocities, flat (3 n_free,); pinned nodes
-stay at their rest positions with zero velocity (`full_positions` puts them back), as in
+stay at the mesh's `positions` (its rest vertices unless an imposed displacement moves them) with zero velocity (`full_positions` puts them back), as in
 refsim.models.spring_network. Forces on the free nodes (N):
 - elastic: f = -dU/dx of the ElasticBody (refsim.models.fem_model); a triangle mesh's forces
   lie in its plane (no stiffness normal to it: gravity and loads must lie in the plane);
@@ -63,7 +63,7 @@ class FemSystem:
         self.to_local = _world_map(self.body, self.n_nodes)[:, self.free_dofs].tocsr()
         self.linear = self.body.linear
         self.velocity_dependent = bool(self.alpha > 0 or self.beta > 0)
-        self._rest = np.array(mesh.vertices, float)
+        self._rest = np.array(mesh.positions, float)  # initial; pinned nodes held here
 
     def describe(self) -> dict:
         return {**self.body.describe(), "free_nodes": self.nbody,
@@ -71,7 +71,8 @@ class FemSystem:
                 "rayleigh_alpha_per_s": self.alpha, "rayleigh_beta_s": self.beta}
 
     def full_positions(self, x_free) -> np.ndarray:
-        """(n_nodes, 3): the free nodes from the state, the pinned ones at rest."""
+        """(n_nodes, 3): the free nodes from the state, the pinned ones where the mesh holds
+        them (its `positions`)."""
         out = self._rest.copy()
         out[self.free] = np.reshape(x_free, (self.nbody, 3))
         return out
@@ -157,6 +158,6 @@ class FemSystem:
         return getattr(self.body.law, "plastic_strain", None)
 
     def state(self):
-        """(x, v) flat: the mesh's rest positions and initial velocities of the free nodes."""
+        """(x, v) flat: the mesh's initial positions and velocities of the free nodes."""
         return (self._rest[self.free].reshape(-1).copy(),
                 np.array(self.mesh.velocities, float)[self.free].reshape(-1))

@@ -147,9 +147,12 @@ def _pinned(name: str, value, n: int) -> np.ndarray:
 
 
 def _common(part, n: int) -> None:
-    """velocities, pinned, loads and the material of a mesh part of n nodes."""
+    """positions, velocities, pinned, loads and the material of a mesh part of n nodes."""
     if not isinstance(part.material, Material):
         raise ValueError("mesh.material must be a Material")
+    positions = (part.vertices if part.positions is None
+                 else float_array("mesh.positions", part.positions, (n, 3)))
+    _set(part, "positions", read_only(np.array(positions, float)))
     _set(part, "velocities", zeros_or("mesh.velocities", part.velocities, (n, 3)))
     _set(part, "pinned", _pinned("mesh.pinned", part.pinned, n))
     _set(part, "loads", zeros_or("mesh.loads", part.loads, (n, 3)))
@@ -162,7 +165,9 @@ class TriangleMesh(ArrayPart):
     material; velocities (n, 3) m/s (zeros when omitted); thickness (m, > 0) of the sheet
     (mass = density x thickness x area; 1: per unit thickness); plane "stress" (a thin sheet,
     sigma_zz = 0) or "strain" (a long prism, eps_zz = 0); pinned (p,) distinct node indices
-    held fixed; loads (n, 3) N, constant nodal forces in the mesh plane."""
+    held fixed; loads (n, 3) N, constant nodal forces in the mesh plane; positions (n, 3) m,
+    the initial configuration (the rest vertices when omitted), in the mesh plane: pinned
+    nodes are held at it (an imposed boundary displacement)."""
 
     vertices: np.ndarray
     triangles: np.ndarray
@@ -172,6 +177,7 @@ class TriangleMesh(ArrayPart):
     plane: str = "stress"
     pinned: np.ndarray | None = None
     loads: np.ndarray | None = None
+    positions: np.ndarray | None = None
 
     kind = "meshes"
     many = True  # a scene may hold several meshes
@@ -190,6 +196,11 @@ class TriangleMesh(ArrayPart):
         _set(self, "thickness", _positive("mesh.thickness", self.thickness))
         choice("mesh.plane", self.plane, PLANE_MODES)
         _, normal = mesh_plane(vertices, triangles)
+        moved = np.abs((self.positions - vertices) @ normal) > PLANE_TOLERANCE * max(
+            1.0, float(np.max(np.abs(vertices))))
+        if np.any(moved):
+            raise ValueError(f"mesh.positions must lie in the mesh plane, nodes "
+                             f"{_named(moved)} are out of it")
         out = np.abs(self.loads @ normal) > PLANE_TOLERANCE * np.max(np.abs(self.loads),
                                                                      initial=0.0)
         if np.any(out):
@@ -231,7 +242,8 @@ class TetMesh(ArrayPart):
     """vertices (n, 3) m; tetrahedra (m, 4) vertex indices, four distinct, of non-zero volume
     and positively oriented (module docstring); the material; velocities (n, 3) m/s (zeros when
     omitted); pinned (p,) distinct node indices held fixed; loads (n, 3) N, constant nodal
-    forces."""
+    forces; positions (n, 3) m, the initial configuration (the rest vertices when omitted):
+    pinned nodes are held at it."""
 
     vertices: np.ndarray
     tetrahedra: np.ndarray
@@ -239,6 +251,7 @@ class TetMesh(ArrayPart):
     velocities: np.ndarray | None = None
     pinned: np.ndarray | None = None
     loads: np.ndarray | None = None
+    positions: np.ndarray | None = None
 
     kind = "meshes"
     many = True
