@@ -8,19 +8,26 @@ v1 = v2 = -v3 / 2, period T = 6.32591398. Variants: `one_period` (default) and
 `hundred_periods` (by name: energy drift over 100 periods, symplectic bounded against RK4's
 secular growth; the extra metric `energy_growth` tells them apart).
 
-Reference: a converged in-house solution, refsim's `dopri5_adaptive` at rtol 1e-12 (atol
-1e-15) landing on a grid of REF_POINTS_PER_PERIOD points per period, between them the quintic
-Hermite interpolant of x, v, a at both ends. Its error: interpolation 1.7e-11 m (at the
-midpoints, against landing there) plus integration 1.5e-11 m (against rtol 1e-13 at t = T):
-REFERENCE_ERROR = 5e-11 m bounds their sum over one period. Over P periods the integration
-error grows: a local error changes the energy, hence the period, and the phase error that
-follows grows with t on top of the energy error's own growth: at most as t^2, so
-`reference_error(P)` = REFERENCE_ERROR max(1, P)^2 (measured over 100 periods: 1.4e-7 m against
-scipy's DOP853 at rtol 2.5e-14, under its bound 5e-7 m; tests/cases/test_figure_eight.py).
+Reference: a converged solution independent of the engine under test: scipy's DOP853
+(`solve_ivp`, an eighth-order method of another implementation) at rtol 2.5e-14 (atol 2.5e-17;
+scipy's floor is 100 eps) on the case's own three-body accelerations (`accelerations`, not
+refsim's gravity model), its dense output on a grid of REF_POINTS_PER_PERIOD points per
+period, between them the quintic Hermite interpolant of x, v, a at both ends. Its error over
+one period: interpolation 1.2e-11 m (at the midpoints, against one dopri5_adaptive step at
+rtol 1e-14 from the node) plus integration 4.9e-13 m (against refsim's dopri5_adaptive at rtol
+1e-14 landing on the grid points):
+REFERENCE_ERROR = 5e-11 m bounds their sum. Over P periods the integration error grows: a
+local error changes the energy, hence the period, and the phase error that follows grows with
+t on top of the energy error's own growth: at most as t^2, so `reference_error(P)` =
+REFERENCE_ERROR max(1, P)^2 (measured against dopri5_adaptive at rtol 1e-14: 3.5e-11 m over 10
+periods, 2.7e-9 m over 100, under its bounds 5e-9 and 5e-7 m; tests/cases/test_figure_eight.py
+checks ten periods). DOP853 takes 10-15 s of CPU for 100 periods where refsim's dopri5_adaptive
+at rtol 1e-12, the reference before, took 48-58 s (back to back) and was 1.4e-7 m off.
 Compared observable `x` (m, the three positions,
 (T, 3, 3)), error = Euclidean norm over the bodies.
 The 8-digit initial conditions do not close the orbit exactly: the return error
-|x(T) - x(0)| of the converged solution is RETURN_FLOOR (measured with the tight run above);
+|x(T) - x(0)| of the converged solution is RETURN_FLOOR (measured 5.03e-8 m with refsim's
+dopri5_adaptive at rtol 1e-13);
 the extra metric `return_error` (after whole periods only) is meaningful only above it.
 Extra metrics: `return_error` (m), `momentum_drift` max |P - P0| / (sum m |v|)(0),
 `angular_momentum_drift` max |L - L0| / (sum m |x| |v|)(0) (L0 is 0 to the ICs' digits, so
@@ -36,7 +43,6 @@ from functools import lru_cache
 import numpy as np
 
 from refsim.case import Case, Param, roundoff_tolerance
-from refsim.integrators import AdaptiveDormandPrince
 from refsim.models.nbody_gravity import GravitySystem, pair_jacobian
 from refsim.scene import Particles, Scene
 from refsim.scene.gravity_pairs import GravityPairs
@@ -49,8 +55,8 @@ V3 = (-0.93240737, -0.86473146, 0.0)
 MASSES = np.full(3, 2.0)  # kg; with G = 0.5, G m = 1: the published orbit (units G = m = 1)
 G = 0.5  # not 1 (nor the masses): an engine dropping G or a mass fails
 REF_POINTS_PER_PERIOD = 256
-REFERENCE_RTOL = 1e-12
-REFERENCE_ERROR = 5e-11  # m: bound on the reference's error over one period (measured 3.2e-11)
+REFERENCE_RTOL = 2.5e-14  # DOP853's; atol REFERENCE_RTOL * 1e-3 (positions of order 1 m)
+REFERENCE_ERROR = 5e-11  # m: bound on the reference's error over one period (measured 1.2e-11)
 RETURN_FLOOR = 1e-7  # m: |x(T) - x(0)| of the converged solution (measured 5.03e-8, times 2)
 STEPS_PER_PERIOD = (50, 158, 500)  # the timed dt sweep (a decade), as steps per period
 ORDER_STEPS_PER_PERIOD = (1580,)  # untimed, for the order fit: with 158 and 500 a decade
@@ -63,23 +69,50 @@ def initial_state():
     return x, np.array([-0.5 * v3, -0.5 * v3, v3])
 
 
+# the three pairs (i, j) and the matrix C with a = C @ ((x_j - x_i) / |x_j - x_i|^3) over the
+# pairs: a_i = G m_j s_ij for the pairs (i, j), a_j = -G m_i s_ij
+PAIRS_I, PAIRS_J = np.array([0, 0, 1]), np.array([1, 2, 2])
+PAIR_MATRIX = G * np.array([[MASSES[1], MASSES[2], 0.0], [-MASSES[0], 0.0, MASSES[2]],
+                            [0.0, -MASSES[0], -MASSES[1]]])
+
+
+def accelerations(x):
+    """Newtonian accelerations of the three bodies, (..., 9) flat positions -> (..., 9): the
+    reference's own formula, written apart from refsim.models.nbody_gravity."""
+    x = np.asarray(x, float).reshape(*np.shape(x)[:-1], 3, 3)
+    d = x[..., PAIRS_J, :] - x[..., PAIRS_I, :]
+    r2 = np.sum(d * d, axis=-1)
+    s = d / (r2 * np.sqrt(r2))[..., None]
+    return np.matmul(PAIR_MATRIX, s).reshape(*x.shape[:-2], 9)
+
+
+def _derivative(_, y):
+    """d(x, v)/dt of one flat state (18,): `accelerations` for one state, written for the
+    per-step cost of solve_ivp's calls (about 20 us; the batched form takes 28)."""
+    x = y[:9].reshape(3, 3)
+    d = x[PAIRS_J] - x[PAIRS_I]
+    r2 = (d * d).sum(axis=1)
+    out = np.empty(18)
+    out[:9] = y[9:]
+    out[9:] = (PAIR_MATRIX @ (d / (r2 * np.sqrt(r2))[:, None])).ravel()
+    return out
+
+
 @lru_cache(maxsize=4)
 def reference_grid(periods: float):
-    """(t, x, v, a) of the converged solution on REF_POINTS_PER_PERIOD points per period."""
-    system = GravitySystem(MASSES, G)
+    """(t, x, v, a) of the converged solution on REF_POINTS_PER_PERIOD points per period (flat
+    states): DOP853's dense output there (see the module docstring)."""
+    from scipy.integrate import solve_ivp
     count = int(round(periods * REF_POINTS_PER_PERIOD))
     t = np.linspace(0.0, periods * PERIOD, count + 1)
     x0, v0 = initial_state()
-    stepper = AdaptiveDormandPrince(rtol=REFERENCE_RTOL, atol=REFERENCE_RTOL * 1e-3)
-    h = t[1] - t[0]
-    state = stepper.start(system, 0.0, x0.reshape(-1), v0.reshape(-1), h)
-    xs, vs = [state[0]], [state[1]]
-    for k in range(count):  # a loop over output TIMES, as every stepper's time loop
-        state = stepper.step(system, t[k], state, h)
-        xs.append(state[0])
-        vs.append(state[1])
-    x, v = np.array(xs), np.array(vs)
-    return t, x, v, system.accel(0.0, x, v)
+    solved = solve_ivp(_derivative, (0.0, t[-1]), np.concatenate([x0.ravel(), v0.ravel()]),
+                       method="DOP853", rtol=REFERENCE_RTOL, atol=REFERENCE_RTOL * 1e-3,
+                       t_eval=t)
+    if solved.status != 0:
+        raise RuntimeError(f"figure_eight reference: {solved.message}")
+    x, v = solved.y[:9].T.copy(), solved.y[9:].T.copy()
+    return t, x, v, accelerations(x)
 
 
 def hermite_quintic(t, grid):
@@ -119,7 +152,7 @@ def fastest_rate(periods: float) -> float:
 class FigureEight(Case):
     name = "figure_eight"
     description = ("Chenciner-Montgomery figure-eight three-body choreography: converged "
-                   "in-house reference, return to the start after each period")
+                   "DOP853 reference, return to the start after each period")
     tags = ("particle_fields", "gravity", "orbit", "converged")
     observable, units = "x", "m"
     params = {"periods": Param(1.0, 0.0, 1e3, "run length in periods", low_inclusive=False)}
