@@ -2,6 +2,7 @@
 import json
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pandas as pd
@@ -15,7 +16,7 @@ def refsim(*args, cwd=None):
                           text=True, cwd=cwd, timeout=300)
 
 
-@pytest.mark.parametrize("args,names", [
+BAD_INPUT = [
     (["run", "--case", "nope"], "case must be one of"),
     (["run", "--dt", "-1"], "--dt must be a finite number > 0"),
     (["run", "--dt=-1"], "--dt must be a finite number > 0"),
@@ -43,8 +44,32 @@ def refsim(*args, cwd=None):
     (["run", "--jobs", "0"], "--jobs must be an integer >= 1, got '0'"),
     (["run", "--integrator", "rk2:"], "integrator 'rk2:': a parameter must follow ':' (alpha "
                                       "in (0, 1]"),
-])
-def test_bad_input_is_one_line_and_exit_2(args, names, tmp_path):
+]
+
+
+@pytest.mark.parametrize("args,names", BAD_INPUT)
+def test_bad_input_is_one_line_and_exit_2(args, names, tmp_path, capsys):
+    """In this process: `python -m refsim` exits with main()'s SystemExit code and stderr
+    (refsim/__main__.py); a real process's exit status and stderr for both ways bad input
+    leaves (the parser's error, a ValueError of the command):
+    test_bad_input_in_a_real_process. A warning is an error here (it would be a second
+    line on a real stderr)."""
+    from refsim.cli import main
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(SystemExit) as exit_info:
+            main([*args, "--out", str(tmp_path)])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert names in lines[0]
+    assert not any(tmp_path.iterdir()), "nothing may be written for bad input"
+
+
+@pytest.mark.parametrize("args,names", [BAD_INPUT[13], BAD_INPUT[1], BAD_INPUT[16]],
+                         ids=["parser", "option", "matrix"])
+def test_bad_input_in_a_real_process(args, names, tmp_path):
     out = refsim(*args, "--out", str(tmp_path))
     assert out.returncode == 2, out.stderr
     lines = out.stderr.strip().splitlines()
@@ -93,7 +118,9 @@ def test_run_writes_table_and_manifest(tmp_path):
 
 @pytest.mark.slow
 def test_resume_finishes_without_redoing_rows(tmp_path):
-    _, run_dir = _small_run(tmp_path)
+    # no report of the first run (test_run_writes_table_and_manifest's writes one); the resumed
+    # run writes its own
+    _, run_dir = _small_run(tmp_path, "--no-report")
     table = load_results(run_dir)
     kept = table.iloc[:2]
     kept.to_csv(run_dir / "results.csv", index=False, na_rep="nan")  # as if interrupted
@@ -114,9 +141,12 @@ def test_resume_finishes_without_redoing_rows(tmp_path):
     assert list(again["step_s"]) == list(kept["step_s"])
 
 
-def test_resume_unknown_run_is_bad_input(tmp_path):
-    out = refsim("run", "--resume", "nope", "--out", str(tmp_path))
-    assert out.returncode == 2 and "run must be a stored run directory" in out.stderr
+def test_resume_unknown_run_is_bad_input(tmp_path, capsys):
+    from refsim.cli import main
+    with pytest.raises(SystemExit) as exit_info:  # the exit status of `python -m refsim`
+        main(["run", "--resume", "nope", "--out", str(tmp_path)])
+    assert exit_info.value.code == 2
+    assert "run must be a stored run directory" in capsys.readouterr().err
 
 
 def test_max_steps_reads_digits_and_powers_of_ten():
