@@ -40,7 +40,12 @@ FASTEST = {"generalized": 2.0, "kkt": 5.0}
 
 
 # the implicit steppers on the KKT pendulum (Newton on the constrained system) take 15-20 s
+# over 2 s: they run 1 s, half a swing (the period is 2.14 s at theta0 = 1 rad: from +1 rad
+# through the bottom to -0.98 rad, every angle of the motion), the order being that of the
+# global error at any horizon; measured slopes 0.9985 (both) over 1 s, 0.9979 over 2 s, with
+# the finest error 6e-4 rad, far above round-off: the same sweep and bound, 40 % of the steps
 IMPLICIT_KKT_SLOW = {("implicit_euler", "kkt"), ("baraff_witkin", "kkt")}
+PENDULUM_DURATION = {key: 1.0 for key in IMPLICIT_KKT_SLOW}  # s; the rest 2 s
 
 
 @pytest.mark.parametrize("name,formulation", [
@@ -50,7 +55,8 @@ def test_measured_order_on_pendulum_is_declared_order(name, formulation):
     order = get_integrator(name).order
     omega = FASTEST[formulation] * np.sqrt(9.81)
     slope, used, errs = measured_order("pendulum", "default", "refsim", name,
-                                       _sweep(order, omega), formulation, duration=2.0)
+                                       _sweep(order, omega), formulation,
+                                       duration=PENDULUM_DURATION.get((name, formulation), 2.0))
     assert used >= 3, errs
     assert abs(slope - order) < 0.15, (slope, errs)
 
