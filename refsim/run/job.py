@@ -18,7 +18,7 @@ from refsim.integrators import method_info
 from refsim.run.metrics import energy_drift, error_norms
 from refsim.options import check_steps
 from refsim.run.timing import (BUDGET_S, LONG_RUN_S, build_sim as _build, timing_pass,
-                               whole_run_check)
+                               whole_run_check, whole_run_s)
 from refsim.registry import get_case, get_engine
 from refsim.verdicts import (INCONSISTENT, NO_REFERENCE, UNRESOLVED, declared_reason,
                              energy_reason, judge, reaches)
@@ -144,7 +144,8 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
         timed = steps if stepping_s <= LONG_RUN_S else max(
             1, min(steps, int(steps * LONG_RUN_S / stepping_s)))
         timing = clock.call(timing_pass, engine, scene, job, steps, timed, repeats, budget_s)
-        row.update(whole_run_check(timing, steps, stepping_s, len(obs) - 1))
+        row.update(whole_run_check(timing, steps, stepping_s, len(obs) - 1,
+                                   lambda: clock.call(whole_run_s, engine, scene, job, steps)))
 
 
 def _verdicts(case, p, job, row, stacked) -> dict:
