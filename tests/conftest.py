@@ -18,3 +18,13 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if MEASURED.get(item.nodeid, 0.0) >= SLOW_S:
             item.add_marker(pytest.mark.slow)
+
+
+def pytest_configure(config):
+    """Under pytest-xdist, each case's memoised references computed once per session for all
+    workers (tests/shared_cache.py), in the session's temporary directory: the workers'
+    basetemps are its children."""
+    workerinput = getattr(config, "workerinput", None)
+    if workerinput is not None and config.option.basetemp:
+        from shared_cache import share_case_caches
+        share_case_caches(Path(config.option.basetemp).parent / "case-caches")
