@@ -7,14 +7,20 @@ Blocks: ("h1"|"h3", text), ("h2", text[, anchor]), ("p", text with `code` and **
 goes (the Markdown leaves it out); ("html", markup) for the HTML only, ("md_img", path, alt)
 for the Markdown only (the HTML's coloured table stands for that figure), ("details",
 summary, DataFrame): a table folded in the HTML, plain in the Markdown.
+
+The figures' pixels come from `canvas_class()`: matplotlib's Agg canvas drawing each text it
+drew before from a stored coverage mask (refsim.report.style draws every figure on it).
 """
 from __future__ import annotations
 
 import base64
+import functools
 import html
+import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 
@@ -123,3 +129,102 @@ def render_html(blocks, manifest) -> str:
     title = html.escape(f"refsim report {manifest.get('run_id', '')}")
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title>"
             f"<style>{CSS}</style></head><body>{''.join(body)}</body></html>\n")
+
+
+_MASKS: dict = {}  # (text, font, angle, dpi, antialiased) -> (coverage, left, bottom)
+_MASKS_MAX = 20000
+
+
+_METRICS: dict = {}  # (text, font, dpi) -> (width, height, descent) in pixels
+_HEIGHTS: dict = {}  # (font, dpi) -> (ascent, descent, line gap) from its tables
+
+
+def _font_key(prop) -> tuple:
+    return (tuple(prop.get_family()), prop.get_style(), prop.get_variant(), prop.get_weight(),
+            prop.get_stretch(), prop.get_size_in_points(), prop.get_file())
+
+
+def text_metrics(renderer, s: str, prop) -> tuple:
+    """Agg's (width, height, descent) of plain text `s`, measured once per font and dpi."""
+    key = (s, _font_key(prop), renderer.dpi)
+    if key not in _METRICS:
+        if len(_METRICS) >= _MASKS_MAX:
+            _METRICS.clear()
+        _METRICS[key] = renderer.get_text_width_height_descent(s, prop, ismath=False)
+    return _METRICS[key]
+
+
+@functools.cache
+def canvas_class():
+    """An Agg canvas whose renderer draws a text it drew before from a stored coverage mask.
+
+    Agg lays a text out and renders it glyph by glyph at every draw: a fifth of the report's
+    time for ~10,000 texts, most of them the same tick labels, legend entries and axis labels
+    again. A text is rendered once, at a whole-pixel origin, onto a transparent canvas of its
+    own; its alpha is its coverage, which draw_text_image blends in the text's colour as Agg
+    blends each glyph (overlapping glyphs combine alike). The text's origin is rounded to the
+    pixel (up to half a pixel off its unrounded place, as matplotlib before 3.8 drew it)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
+
+    class TextMaskRenderer(RendererAgg):
+        def _get_font_height_metrics(self, prop):
+            """(ascent, descent, line gap) of the font's tables, as matplotlib's Text
+            layout (3.11) reads them for every text it lays out when a renderer has no
+            such method: looked up once per font and dpi here."""
+            key = (_font_key(prop), self.dpi)
+            if key not in _HEIGHTS:
+                from matplotlib.font_manager import findfont, get_font
+                font, _HEIGHTS[key] = get_font(findfont(prop)), (None, None, None)
+                for name, gap, up, down in (("OS/2", "sTypoLineGap", "sTypoAscender",
+                                             "sTypoDescender"),
+                                            ("hhea", "lineGap", "ascent", "descent")):
+                    table = font.get_sfnt_table(name)
+                    if table is not None:  # matplotlib's arithmetic, in its order
+                        scale = (1 / font.get_sfnt_table("head")["unitsPerEm"]
+                                 * prop.get_size_in_points() * self.dpi / 72)
+                        _HEIGHTS[key] = (table[up] * scale, -table[down] * scale,
+                                         table[gap] * scale)
+                        break
+            return _HEIGHTS[key]
+
+        def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+            if ismath:
+                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
+            key = (s, _font_key(prop), angle, self.dpi, bool(gc.get_antialiased()),
+                   *(str(getattr(mtext, g)()) for g in ("get_fontfeatures", "get_language")
+                     if hasattr(mtext, g)))
+            mask = _MASKS.get(key)
+            if mask is None:
+                if len(_MASKS) >= _MASKS_MAX:
+                    _MASKS.clear()
+                mask = _MASKS[key] = _coverage(self, gc, s, prop, angle, mtext)
+            coverage, left, bottom = mask
+            if coverage.size:  # y is downwards; draw_text_image's y is the mask's bottom
+                self._renderer.draw_text_image(coverage, round(x) + left, round(y) + bottom,
+                                               0, gc)
+
+    def _coverage(renderer, gc, s, prop, angle, mtext):
+        """(uint8 coverage, left, bottom) of `s` drawn at a whole-pixel origin."""
+        w, h, d = text_metrics(renderer, s, prop)
+        reach = math.ceil(math.hypot(w, h + d)) + 4 + math.ceil(
+            renderer.points_to_pixels(prop.get_size_in_points()))  # ink's reach, with slack
+        own = RendererAgg(2 * reach + 1, 2 * reach + 1, renderer.dpi)
+        black = own.new_gc()
+        black.set_antialiased(gc.get_antialiased())
+        RendererAgg.draw_text(own, black, reach, reach, s, prop, angle, False, mtext)
+        alpha = np.asarray(own.buffer_rgba())[:, :, 3]
+        rows, cols = np.flatnonzero(alpha.any(axis=1)), np.flatnonzero(alpha.any(axis=0))
+        if not rows.size:
+            return np.zeros((0, 0), np.uint8), 0, 0
+        coverage = np.ascontiguousarray(alpha[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
+        return coverage, int(cols[0]) - reach, int(rows[-1]) + 1 - reach
+
+    class TextMaskCanvas(FigureCanvasAgg):
+        def get_renderer(self, *args, **kwargs):
+            renderer = super().get_renderer(*args, **kwargs)
+            if not isinstance(renderer, TextMaskRenderer):  # made anew for this size
+                renderer = self.renderer = TextMaskRenderer(renderer.width, renderer.height,
+                                                            renderer.dpi)
+            return renderer
+
+    return TextMaskCanvas

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from refsim.report.render import canvas_class, text_metrics
+
 DPI = 72
 MAX_SERIES = 10  # series per axes at most
 PANEL = (4.2, 3.0)  # inches per small multiple
@@ -149,7 +151,7 @@ def grid_figure(count: int):
     cols = min(COLUMNS, count)
     rows = math.ceil(count / cols)
     fig = Figure(figsize=(PANEL[0] * cols, PANEL[1] * rows), dpi=DPI)
-    _canvas_class()(fig)
+    canvas_class()(fig)
     flat = list(fig.subplots(rows, cols, squeeze=False).ravel())
     for ax in flat[count:]:
         fig.delaxes(ax)
@@ -161,7 +163,7 @@ def _empty(ax) -> None:
     """The axes as new for the plots here: no artists, legend, labels or title, linear
     scales (their default locators and formatters), limits from the next data."""
     from matplotlib.transforms import Bbox
-    for artist in [*ax.lines, *ax.patches, *ax.texts, *ax.collections]:
+    for artist in [*ax.lines, *ax.patches, *ax.texts, *ax.collections, *ax.artists]:
         artist.remove()
     if ax.get_legend() is not None:
         ax.get_legend().remove()
@@ -202,8 +204,9 @@ def finish_axes(ax, title: str, legend: bool = True) -> None:
     ax.tick_params(labelsize=7)
     _plain_log_labels(ax.xaxis)
     _plain_log_labels(ax.yaxis)
-    if legend and ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=6, frameon=False, loc="best")
+    handles, labels = ax.get_legend_handles_labels()
+    if legend and handles:
+        ax.add_artist(_legend_class()(ax, handles, labels, fontsize=6))
 
 
 def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.65,
@@ -225,7 +228,7 @@ def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.6
     # that was decoded again); zlib level 6, not optimize (level 9): 8x faster to write, the
     # PNG beside report.md 7 % larger; the HTML's WebP is the same pixels either way
     fig.set_dpi(DPI)
-    canvas = fig.canvas if isinstance(fig.canvas, _canvas_class()) else _canvas_class()(fig)
+    canvas = fig.canvas if isinstance(fig.canvas, canvas_class()) else canvas_class()(fig)
     canvas.draw()
     image = Image.frombuffer("RGBA", canvas.get_width_height(), canvas.buffer_rgba(), "raw",
                              "RGBA", 0, 1).convert("RGB").quantize(
@@ -239,63 +242,82 @@ def save(fig, path: Path, title: str, left_in: float = 0.75, top_in: float = 0.6
     return path
 
 
-_MASKS: dict = {}  # (text, font, angle, dpi, antialiased) -> (coverage, left, bottom)
-_MASKS_MAX = 20000
-
-
 @functools.cache
-def _canvas_class():
-    """An Agg canvas whose renderer draws a text it drew before from a stored coverage mask.
+def _legend_class():
+    """A frameless one-column legend placed and laid out as matplotlib's (loc="best": the
+    first of its ten places that no line, vertex, band or text overlaps, else the least
+    overlapped; its pads, handle length, spacing and baselines), drawn as a Line2D (line
+    and a marker in its middle) and a Text per entry. Matplotlib's Legend built a packer,
+    text area and drawing area per entry and laid them out three times per draw: a fifth
+    of the report's time for 560 legends."""
+    from matplotlib.artist import Artist
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Rectangle
+    from matplotlib.text import Text
+    from matplotlib.transforms import Bbox, IdentityTransform
 
-    Agg lays a text out and renders it glyph by glyph at every draw: a fifth of the report's
-    time for ~10,000 texts, most of them the same tick labels, legend entries and axis labels
-    again. A text is rendered once, at a whole-pixel origin, onto a transparent canvas of its
-    own; its alpha is its coverage, which draw_text_image blends in the text's colour as Agg
-    blends each glyph (overlapping glyphs combine alike). The text's origin is rounded to the
-    pixel (up to half a pixel off its unrounded place, as matplotlib before 3.8 drew it)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
+    class CompactLegend(Artist):
+        zorder = 5
+        places = [None, "NE", "NW", "SW", "SE", "E", "W", "E", "S", "N", "C"]  # its codes
 
-    class TextMaskRenderer(RendererAgg):
-        def draw_text(self, gc, x, y, s, prop, angle, ismath=False, mtext=None):
-            if ismath:
-                return super().draw_text(gc, x, y, s, prop, angle, ismath, mtext)
-            key = (s, tuple(prop.get_family()), prop.get_style(), prop.get_variant(),
-                   prop.get_weight(), prop.get_stretch(), prop.get_size_in_points(),
-                   prop.get_file(), angle, self.dpi, bool(gc.get_antialiased()),
-                   *(str(getattr(mtext, g)()) for g in ("get_fontfeatures", "get_language")
-                     if hasattr(mtext, g)))
-            mask = _MASKS.get(key)
-            if mask is None:
-                if len(_MASKS) >= _MASKS_MAX:
-                    _MASKS.clear()
-                mask = _MASKS[key] = _coverage(self, gc, s, prop, angle, mtext)
-            coverage, left, bottom = mask
-            if coverage.size:  # y is downwards; draw_text_image's y is the mask's bottom
-                self._renderer.draw_text_image(coverage, round(x) + left, round(y) + bottom,
-                                               0, gc)
+        def __init__(self, ax, handles, labels, fontsize):
+            super().__init__()
+            self.parent_axes, self.fontsize = ax, fontsize
+            self.entries = [(Line2D([0, 0, 0], [0, 0, 0], color=h.get_color(),
+                                    ls=h.get_linestyle(), lw=h.get_linewidth(),
+                                    marker=h.get_marker(), ms=h.get_markersize(),
+                                    mfc=h.get_markerfacecolor(), mec=h.get_markeredgecolor(),
+                                    mew=h.get_markeredgewidth(), markevery=[1],
+                                    transform=IdentityTransform()),
+                             Text(0, 0, label, fontsize=fontsize, ha="left", va="baseline",
+                                  transform=IdentityTransform()))
+                            for h, label in zip(handles, labels)]
+            for artist in (a for pair in self.entries for a in pair):
+                artist.set_figure(ax.get_figure(root=False))
 
-    def _coverage(renderer, gc, s, prop, angle, mtext):
-        """(uint8 coverage, left, bottom) of `s` drawn at a whole-pixel origin."""
-        w, h, d = renderer.get_text_width_height_descent(s, prop, ismath=False)
-        reach = math.ceil(math.hypot(w, h + d)) + 4 + math.ceil(
-            renderer.points_to_pixels(prop.get_size_in_points()))  # ink's reach, with slack
-        own = RendererAgg(2 * reach + 1, 2 * reach + 1, renderer.dpi)
-        black = own.new_gc()
-        black.set_antialiased(gc.get_antialiased())
-        RendererAgg.draw_text(own, black, reach, reach, s, prop, angle, False, mtext)
-        alpha = np.asarray(own.buffer_rgba())[:, :, 3]
-        rows, cols = np.flatnonzero(alpha.any(axis=1)), np.flatnonzero(alpha.any(axis=0))
-        if not rows.size:
-            return np.zeros((0, 0), np.uint8), 0, 0
-        coverage = np.ascontiguousarray(alpha[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
-        return coverage, int(cols[0]) - reach, int(rows[-1]) + 1 - reach
+        def draw(self, renderer):
+            em = renderer.points_to_pixels(self.fontsize)
+            prop = self.entries[0][1].get_fontproperties()
+            _, lp_h, lp_d = text_metrics(renderer, "lp", prop)
+            ascent, descent, _ = renderer._get_font_height_metrics(prop)  # a line's least
+            if ascent is None:
+                ascent, descent = lp_h - lp_d, lp_d
+            rows = []  # (label width, height above the baseline, depth below it)
+            for _, text in self.entries:
+                w, h, d = text_metrics(renderer, text.get_text(), prop)
+                rows.append((w, max(lp_h - lp_d, h - d, ascent, 0.7 * em), max(d, descent)))
+            width = max(w for w, _, _ in rows) + 2.8 * em + 0.8 * em  # handle, pad, borders
+            height = sum(a + d for _, a, d in rows) + 0.5 * em * (len(rows) - 1) + 0.8 * em
+            left, bottom = self._best(width, height, 0.5 * em, renderer)
+            self.box = Bbox.from_bounds(left, bottom, width, height)  # where it was drawn
+            top = bottom + height - 0.4 * em
+            for (line, text), (_, above, depth) in zip(self.entries, rows):
+                base, x = top - above, left + 0.4 * em
+                line.set_data([x, x + em, x + 2 * em], [base + 0.35 * em] * 3)
+                text.set_position((x + 2.8 * em, base))
+                line.draw(renderer)
+                text.draw(renderer)
+                top = base - depth - 0.5 * em
 
-    class TextMaskCanvas(FigureCanvasAgg):
-        def get_renderer(self, *args, **kwargs):
-            renderer = super().get_renderer(*args, **kwargs)
-            if not isinstance(renderer, TextMaskRenderer):  # made anew for this size
-                renderer = self.renderer = TextMaskRenderer(renderer.width, renderer.height,
-                                                            renderer.dpi)
-            return renderer
+        def _best(self, width, height, pad, renderer):
+            ax = self.parent_axes
+            lines = [a.get_transform().transform_path(a.get_path()) for a in ax.lines]
+            lines += [a.get_transform().transform_path(a.get_path()) for a in ax.patches
+                      if isinstance(a, Patch) and not isinstance(a, Rectangle)]
+            boxes = [a.get_bbox().transformed(a.get_data_transform()) for a in ax.patches
+                     if isinstance(a, Rectangle)]
+            boxes += [a.get_window_extent(renderer) for a in ax.texts]
+            inside = ax.bbox.padded(-pad, -pad)
+            tried = []
+            for code in range(1, 11):
+                at = Bbox.from_bounds(0, 0, width, height).anchored(self.places[code], inside)
+                box = Bbox.from_bounds(*at.p0, width, height)
+                badness = (sum(box.count_contains(p.vertices) for p in lines)
+                           + box.count_overlaps(boxes)
+                           + sum(p.intersects_bbox(box, filled=False) for p in lines))
+                if badness == 0:
+                    return at.p0
+                tried.append((badness, code, tuple(at.p0)))
+            return min(tried)[2]
 
-    return TextMaskCanvas
+    return CompactLegend

@@ -46,7 +46,7 @@ def test_a_text_drawn_from_its_stored_mask_is_the_text_agg_draws():
     second; the same words at another angle, size or colour are their own text."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from refsim.report.style import _canvas_class
+    from refsim.report.render import canvas_class
 
     def pixels(canvas_class):
         fig = Figure(figsize=(3, 2), dpi=72)  # 216 x 144 pixels
@@ -62,13 +62,49 @@ def test_a_text_drawn_from_its_stored_mask_is_the_text_agg_draws():
         return first, np.asarray(canvas.buffer_rgba()).copy()
 
     agg, _ = pixels(FigureCanvasAgg)
-    first, again = pixels(_canvas_class())
+    first, again = pixels(canvas_class())
     assert (agg[:, :, :3] < 128).any(axis=2).sum() > 300  # the texts are there
     # one level at most, where glyphs overlap: Agg blends each glyph's 8-bit coverage into
     # the pixel in turn, the mask holds their union rounded to 8 bits once (2 of 31,104
     # pixels here); a wrong place, angle or size is tens of levels over many pixels
     assert np.abs(first.astype(int) - agg).max() <= 1
     np.testing.assert_array_equal(again, first)  # drawn from the stored masks
+
+
+@pytest.mark.parametrize("lines", [
+    # two crossing lines over the top: the legend goes below them
+    [dict(y=lambda x: 0.5 + 0.5 * x, color="#d62728", marker="s", ls="--", label="rk4 (p=4)"),
+     dict(y=lambda x: 1 - 0.5 * x, color="#1f77b4", marker="o", mfc="none", label="midpoint")],
+    # an arch: both upper corners free, the upper right taken
+    [dict(y=lambda x: 1 - 4 * (x - 0.5) ** 2, color="#2ca02c", marker="D", label="arch")],
+    # a Pareto step (drawn as steps, its handle a plain line) and a dotted line
+    [dict(y=lambda x: x, color="k", marker="o", ms=3, lw=1.4, drawstyle="steps-post",
+          label="all engines"), dict(y=lambda x: x ** 2, color="r", marker="^", ls=":",
+                                     label="b")],
+    # eight dash-dotted waves with markers every third point: nowhere is free, the least
+    # overlapped place is taken
+    [dict(y=lambda x, k=k: np.sin(6 * x + k), marker="o", ls="-.", markevery=3,
+          label=f"line {k}") for k in range(8)]])
+def test_the_compact_legend_is_matplotlibs_legend(lines):
+    """refsim.report.style's legend (a line and a text per entry) draws the pixels of
+    matplotlib's Legend(fontsize=6, frameon=False, loc="best") over the same lines: the same
+    place, pads, spacing, handles and labels."""
+    from refsim.report import style
+    drawn = []
+    for ours in (True, False):
+        style._SPARE.clear()
+        fig, (ax,) = style.grid_figure(1)
+        x = np.linspace(0.0, 1.0, 20)
+        for spec in lines:
+            spec = dict(spec)
+            ax.plot(x, spec.pop("y")(x), **spec)
+        style.finish_axes(ax, "legend", legend=ours)
+        if not ours:
+            ax.legend(fontsize=6, frameon=False, loc="best")
+        fig.canvas.draw()
+        drawn.append(np.asarray(fig.canvas.buffer_rgba()).copy())
+        assert (len(ax.artists), ax.get_legend() is None) == ((1, True) if ours else (0, False))
+    np.testing.assert_array_equal(drawn[0], drawn[1])
 
 
 def test_a_figure_drawn_again_is_the_figure_drawn_new(run_dir, tmp_path):
