@@ -40,10 +40,10 @@ def test_pareto_front_keeps_only_undominated_points():
 
 
 def test_a_text_drawn_from_its_stored_mask_is_the_text_agg_draws():
-    """refsim.report.style's canvas draws a text it drew before from its stored coverage.
-    At a whole-pixel origin (where it puts every text) the pixels are Agg's own (the same
-    glyph rasters, blended alike), at the first draw and from the stored masks at the
-    second; the same words at another angle, size or colour are their own text."""
+    """refsim.report.render's canvas draws a text it drew before from its stored coverage.
+    At a whole-pixel origin (where it puts every text) the pixels are Agg's own, at the first
+    draw and from the stored masks at the second; the same words at another angle, size or
+    colour are their own text."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from refsim.report.render import canvas_class
@@ -53,16 +53,11 @@ def test_a_text_drawn_from_its_stored_mask_is_the_text_agg_draws():
         canvas = canvas_class(fig)
         for x, y, size, angle, colour in [(5, 15, 7, 0, "k"), (5, 45, 8.5, 0, "#d62728"),
                                           (200, 5, 7, 90, "#1f77b4"), (5, 110, 10, 0, "k")]:
-            fig.text(x, y, "1e-08 rk4 (p=4.00) ff", fontsize=size, rotation=angle,
-                     rotation_mode="anchor", color=colour, transform=None, ha="left",
-                     va="baseline")  # the origin at (x, y) pixels, rotated or not
-        canvas.draw()
-        first = np.asarray(canvas.buffer_rgba()).copy()
-        canvas.draw()
-        return first, np.asarray(canvas.buffer_rgba()).copy()
+            fig.text(x, y, "1e-08 rk4 (p=4.00) ff", fontsize=size, rotation=angle, va="baseline",
+                     rotation_mode="anchor", color=colour, transform=None)  # origin (x, y) px
+        return [(canvas.draw(), np.asarray(canvas.buffer_rgba()).copy())[1] for _ in "12"]
 
-    agg, _ = pixels(FigureCanvasAgg)
-    first, again = pixels(canvas_class())
+    (agg, _), (first, again) = pixels(FigureCanvasAgg), pixels(canvas_class())
     assert (agg[:, :, :3] < 128).any(axis=2).sum() > 300  # the texts are there
     # one level at most, where glyphs overlap: Agg blends each glyph's 8-bit coverage into
     # the pixel in turn, the mask holds their union rounded to 8 bits once (2 of 31,104
@@ -71,20 +66,17 @@ def test_a_text_drawn_from_its_stored_mask_is_the_text_agg_draws():
     np.testing.assert_array_equal(again, first)  # drawn from the stored masks
 
 
-@pytest.mark.parametrize("lines", [
-    # two crossing lines over the top: the legend goes below them
-    [dict(y=lambda x: 0.5 + 0.5 * x, color="#d62728", marker="s", ls="--", label="rk4 (p=4)"),
-     dict(y=lambda x: 1 - 0.5 * x, color="#1f77b4", marker="o", mfc="none", label="midpoint")],
-    # an arch: both upper corners free, the upper right taken
-    [dict(y=lambda x: 1 - 4 * (x - 0.5) ** 2, color="#2ca02c", marker="D", label="arch")],
-    # a Pareto step (drawn as steps, its handle a plain line) and a dotted line
-    [dict(y=lambda x: x, color="k", marker="o", ms=3, lw=1.4, drawstyle="steps-post",
-          label="all engines"), dict(y=lambda x: x ** 2, color="r", marker="^", ls=":",
-                                     label="b")],
-    # eight dash-dotted waves with markers every third point: nowhere is free, the least
-    # overlapped place is taken
-    [dict(y=lambda x, k=k: np.sin(6 * x + k), marker="o", ls="-.", markevery=3,
-          label=f"line {k}") for k in range(8)]])
+@pytest.mark.parametrize("lines", [  # (y(x), plot keywords)
+    # two lines crossing over the top: the legend goes below them
+    [(lambda x: 0.5 + 0.5 * x, dict(color="r", marker="s", ls="--", label="rk4 (p=4)")),
+     (lambda x: 1 - 0.5 * x, dict(marker="o", mfc="none", label="midpoint"))],
+    [(lambda x: 1 - 4 * (x - 0.5) ** 2, dict(marker="D", label="arch"))],  # both top corners free
+    # a Pareto step (its handle a plain line) and a dotted line
+    [(lambda x: x, dict(color="k", marker="o", ms=3, lw=1.4, drawstyle="steps-post",
+                        label="all engines")), (lambda x: x * x, dict(marker="^", ls=":"))],
+    # eight waves, markers every third point: nowhere free, the least overlapped place taken
+    [(lambda x, k=k: np.sin(6 * x + k), dict(marker="o", ls="-.", markevery=3, label=f"{k}"))
+     for k in range(8)]])
 def test_the_compact_legend_is_matplotlibs_legend(lines):
     """refsim.report.style's legend (a line and a text per entry) draws the pixels of
     matplotlib's Legend(fontsize=6, frameon=False, loc="best") over the same lines: the same
@@ -95,9 +87,8 @@ def test_the_compact_legend_is_matplotlibs_legend(lines):
         style._SPARE.clear()
         fig, (ax,) = style.grid_figure(1)
         x = np.linspace(0.0, 1.0, 20)
-        for spec in lines:
-            spec = dict(spec)
-            ax.plot(x, spec.pop("y")(x), **spec)
+        for y, kwargs in lines:
+            ax.plot(x, y(x), **{"label": "b", **kwargs})
         style.finish_axes(ax, "legend", legend=ours)
         if not ours:
             ax.legend(fontsize=6, frameon=False, loc="best")
@@ -105,6 +96,37 @@ def test_the_compact_legend_is_matplotlibs_legend(lines):
         drawn.append(np.asarray(fig.canvas.buffer_rgba()).copy())
         assert (len(ax.artists), ax.get_legend() is None) == ((1, True) if ours else (0, False))
     np.testing.assert_array_equal(drawn[0], drawn[1])
+
+
+def test_axis_labels_go_where_matplotlib_places_them():
+    """save() places each axis label from its tick labels' text and the font's metrics
+    (refsim.report.style._place_axis_labels) where matplotlib's automatic placement (every
+    tick label laid out) puts it: log axes over decades and within one (labelled minor
+    ticks, another font size), linear axes with wide and narrow labels."""
+    from refsim.report import style
+    style._SPARE.clear()
+    fig, axes = style.grid_figure(4)
+    x = np.linspace(1.0, 2.0, 9)
+    for ax, (xs, ys, xscale, yscale) in zip(axes, [
+            (x, 1e-12 * x ** 30, "log", "log"), (x * 1e-3, 1 + 0.5 * x, "log", "log"),
+            (x, -0.0025 * x, "linear", "linear"), (x * 1e4, x * 3, "linear", "log")]):
+        ax.plot(xs, ys, marker="o", label="a")
+        ax.set(xscale=xscale, yscale=yscale, xlabel="x label", ylabel="y label")
+        style.finish_axes(ax, "title")
+    fig.subplots_adjust(left=0.1, bottom=0.2, wspace=0.6)
+
+    def label_places():
+        fig.canvas.draw()
+        return [a.get_window_extent().bounds for ax in axes for a in (ax.xaxis.label,
+                                                                      ax.yaxis.label)]
+
+    automatic = label_places()
+    for ax in axes:
+        style._place_axis_labels(ax, fig.canvas.get_renderer())
+    # the same sums in another order: within a millionth of a pixel
+    np.testing.assert_allclose(label_places(), automatic, rtol=0, atol=1e-6)
+    # the y labels stand at different distances from their axes (tick labels' widths)
+    assert len({round(ax.bbox.x0 - b[0]) for ax, b in zip(axes, automatic[1::2])}) > 2
 
 
 def test_a_figure_drawn_again_is_the_figure_drawn_new(run_dir, tmp_path):
@@ -115,13 +137,9 @@ def test_a_figure_drawn_again_is_the_figure_drawn_new(run_dir, tmp_path):
     from refsim.report import plots, style
     table = load_results(run_dir)
     table = table[np.isfinite(table["dt"])]
-    look = style.Style.of_table(table)
-
-    def draw(case):
-        rows = table[table["case"] == case]
-        path = plots.convergence(rows, "err_max", "m", tmp_path / "f.png", case, look)
-        return np.asarray(Image.open(path).convert("RGB"))
-
+    draw = lambda case: np.asarray(Image.open(plots.convergence(  # noqa: E731
+        table[table["case"] == case], "err_max", "m", tmp_path / "f.png", case,
+        style.Style.of_table(table))).convert("RGB"))
     new = {}
     for case in ("free_fall", "stiff_spring"):
         style._SPARE.clear()
