@@ -98,11 +98,12 @@ def test_the_compact_legend_is_matplotlibs_legend(lines):
     np.testing.assert_array_equal(drawn[0], drawn[1])
 
 
-def test_axis_labels_go_where_matplotlib_places_them():
+def test_axis_labels_and_tick_lines_are_matplotlibs():
     """save() places each axis label from its tick labels' text and the font's metrics
     (refsim.report.style._place_axis_labels) where matplotlib's automatic placement (every
-    tick label laid out) puts it: log axes over decades and within one (labelled minor
-    ticks, another font size), linear axes with wide and narrow labels."""
+    tick label laid out) puts it, and draws the tick marks and gridlines of an axis as one
+    line: log axes over decades and within one (labelled minor ticks, another font size),
+    linear axes with wide and narrow labels."""
     from refsim.report import style
     style._SPARE.clear()
     fig, axes = style.grid_figure(4)
@@ -120,11 +121,24 @@ def test_axis_labels_go_where_matplotlib_places_them():
         return [a.get_window_extent().bounds for ax in axes for a in (ax.xaxis.label,
                                                                       ax.yaxis.label)]
 
-    automatic = label_places()
-    for ax in axes:
-        style._place_axis_labels(ax, fig.canvas.get_renderer())
+    pixels = lambda: np.asarray(fig.canvas.buffer_rgba()).astype(int)  # noqa: E731
+    automatic, per_tick = label_places(), pixels()
+    undo = [step for ax in axes for step in style._whole_tick_lines(
+        ax, style._place_axis_labels(ax, fig.canvas.get_renderer()))]
     # the same sums in another order: within a millionth of a pixel
     np.testing.assert_allclose(label_places(), automatic, rtol=0, atol=1e-6)
+    # tick marks and gridlines drawn as a line per axis: matplotlib's per tick lines' pixels
+    # but where a gridline ends under a spine, within 3 levels (its 181-point path, which
+    # path.simplify shortens, ends a fraction of a pixel off the 2-point one)
+    moved = np.argwhere(np.abs(pixels() - per_tick).max(axis=2) > 0)  # (row, column)
+    assert np.abs(pixels() - per_tick).max() <= 3 and len(undo) >= 8
+    rows = [fig.bbox.height - e for a in axes for e in (a.bbox.y0, a.bbox.y1)]
+    columns = [e for a in axes for e in (a.bbox.x0, a.bbox.x1)]
+    near = lambda v, lines: min(abs(v - e) for e in lines) <= 1  # noqa: E731
+    assert all(near(r, rows) or near(c, columns) for r, c in moved)
+    for step in undo:
+        step()
+    np.testing.assert_array_equal((fig.canvas.draw(), pixels())[1], per_tick)  # as before
     # the y labels stand at different distances from their axes (tick labels' widths)
     assert len({round(ax.bbox.x0 - b[0]) for ax, b in zip(axes, automatic[1::2])}) > 2
 
