@@ -11,6 +11,7 @@ most the target, so its ratio is at most 0: green side).
 """
 from __future__ import annotations
 
+import functools
 import html
 import math
 import re
@@ -25,15 +26,21 @@ LEGEND_STEPS = (-4, -3, -2, -1, 0, 1, 2, 3, 4)
 def colour(ratio: float) -> str:
     """The scale's colour at log10(best / target) (matplotlib's RdYlGn reversed: green
     below the target, red above)."""
-    from matplotlib import colormaps
     if not math.isfinite(ratio):
         return GREY
     # a gap around the scale's yellow middle: a cell just under the target is light green,
     # one just over it light orange, never the same colour on both sides of the word
     side = 1.0 if ratio > 0 else -1.0
     x = 0.5 + side * (GAP + (0.5 - GAP) * min(abs(ratio), RATIO_SPAN) / RATIO_SPAN)
-    r, g, b, _ = colormaps["RdYlGn_r"](x)
+    r, g, b, _ = _colour_map()(x)
     return "#%02x%02x%02x" % (round(r * 255), round(g * 255), round(b * 255))
+
+
+@functools.cache
+def _colour_map():
+    """RdYlGn reversed (matplotlib's registry copies the map at every look-up)."""
+    from matplotlib import colormaps
+    return colormaps["RdYlGn_r"]
 
 
 def luminance(hex_colour: str) -> float:

@@ -170,7 +170,8 @@ def _case_section(d, rows, series, target_error, out, style=None):
         if draw is not None:
             figures.append(draw(rows, series, row_key, spec, out / "plots" / f"{slug}-fig{k}.png",
                                 f"{title}: {spec['title']}", style))
-    blocks += [("img", f, title) for f in figures if f is not None]
+    from refsim.report.render import webp  # encoded here, in the section's worker
+    blocks += [("img", f, title, webp(f)) for f in figures if f is not None]
     orders = order_table(ran) if meaningful else pd.DataFrame()
     if len(orders):
         blocks += [("h3", "Measured against nominal order"), ("table", orders)]

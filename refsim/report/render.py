@@ -3,10 +3,10 @@ self-contained HTML page (figures inlined as base64 lossless WebP, no external r
 no whitespace between table tags: the default run's report fits 2 MB).
 
 Blocks: ("h1"|"h3", text), ("h2", text[, anchor]), ("p", text with `code` and **bold**),
-("table", DataFrame), ("img", path, alt text), ("nav",) where the HTML's table of contents
-goes (the Markdown leaves it out); ("html", markup) for the HTML only, ("md_img", path, alt)
-for the Markdown only (the HTML's coloured table stands for that figure), ("details",
-summary, DataFrame): a table folded in the HTML, plain in the Markdown.
+("table", DataFrame), ("img", path, alt text[, its WebP bytes]), ("nav",) where the HTML's
+table of contents goes (the Markdown leaves it out); ("html", markup) for the HTML only,
+("md_img", path, alt) for the Markdown only (the HTML's coloured table stands for that
+figure), ("details", summary, DataFrame): a table folded in the HTML, plain in the Markdown.
 
 The figures' pixels come from `canvas_class()`: matplotlib's Agg canvas drawing each text it
 drew before from a stored coverage mask (refsim.report.style draws every figure on it).
@@ -102,12 +102,12 @@ def _block_html(block, toc: list) -> str:
         return (f"<details><summary>{html.escape(block[1])}</summary>"
                 f"{_table_html(block[2])}</details>")
     if kind == "img":
-        data = base64.b64encode(_webp(Path(block[1]))).decode()
+        data = base64.b64encode(block[3] if len(block) > 3 else webp(block[1])).decode()
         return f'<img alt="{html.escape(block[2])}" src="data:image/webp;base64,{data}">'
     return ""
 
 
-def _webp(png: Path) -> bytes:
+def webp(png) -> bytes:
     """The figure as lossless WebP (the same pixels, a fifth smaller than the palette PNG:
     1.38 MB of PNG -> 1.10 MB on a default run; every current browser decodes it)."""
     import io
@@ -206,18 +206,20 @@ def canvas_class():
     def _coverage(renderer, gc, s, prop, angle, mtext):
         """(uint8 coverage, left, bottom) of `s` drawn at a whole-pixel origin."""
         w, h, d = text_metrics(renderer, s, prop)
-        reach = math.ceil(math.hypot(w, h + d)) + 4 + math.ceil(
-            renderer.points_to_pixels(prop.get_size_in_points()))  # ink's reach, with slack
-        own = RendererAgg(2 * reach + 1, 2 * reach + 1, renderer.dpi)
+        slack = 4 + math.ceil(renderer.points_to_pixels(prop.get_size_in_points()))
+        along, across = math.ceil(w) + slack, math.ceil(h + d) + slack  # the ink's reach
+        rx, ry = ((along, across) if angle % 180 == 0 else (across, along) if angle % 90 == 0
+                  else (math.ceil(math.hypot(w, h + d)) + slack,) * 2)
+        own = RendererAgg(2 * rx + 1, 2 * ry + 1, renderer.dpi)
         black = own.new_gc()
         black.set_antialiased(gc.get_antialiased())
-        RendererAgg.draw_text(own, black, reach, reach, s, prop, angle, False, mtext)
+        RendererAgg.draw_text(own, black, rx, ry, s, prop, angle, False, mtext)
         alpha = np.asarray(own.buffer_rgba())[:, :, 3]
         rows, cols = np.flatnonzero(alpha.any(axis=1)), np.flatnonzero(alpha.any(axis=0))
         if not rows.size:
             return np.zeros((0, 0), np.uint8), 0, 0
         coverage = np.ascontiguousarray(alpha[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1])
-        return coverage, int(cols[0]) - reach, int(rows[-1]) + 1 - reach
+        return coverage, int(cols[0]) - rx, int(rows[-1]) + 1 - ry
 
     class TextMaskCanvas(FigureCanvasAgg):
         def get_renderer(self, *args, **kwargs):
