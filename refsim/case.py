@@ -245,6 +245,24 @@ class Case:
             diff.reshape(len(diff), -1), axis=1)
 
 
+class SteadyCase(Case):
+    """A case whose reference is an end state reached by one complete solve (a linear
+    system, an elastic equilibrium): one "step" of pseudo-time is the whole solve, t_end =
+    dt = 1, no convergence order in dt, and the reference at t = 0 is not the initial state."""
+
+    order_meaningful = False
+    initial_state_is_reference = False
+
+    def t_end(self, p):
+        return 1.0
+
+    def dts(self, p):
+        return [1.0]
+
+    def reference_dt(self, p):
+        return 1.0
+
+
 def module_group(module_name: str) -> str:
     """The model group of a case defined in `module_name`: its package's last component
     (refsim_cases.<group>.<case>), else the module's top-level name."""

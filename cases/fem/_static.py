@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import EPS, Case
+from refsim.case import EPS, SteadyCase
 from refsim.models.fem_assembly import Assembler
 from refsim.models.fem_model import ElasticBody
 
@@ -44,10 +44,8 @@ def internal_forces(mesh, x) -> np.ndarray:
     return body.forces(body.to_local(x))
 
 
-class StaticCase(Case):
+class StaticCase(SteadyCase):
     observable, units = "x", "m"
-    order_meaningful = False
-    initial_state_is_reference = False  # the reference is the equilibrium, an end state
 
     def mesh(self, p):
         raise NotImplementedError
@@ -55,15 +53,6 @@ class StaticCase(Case):
     def exact(self, p) -> np.ndarray:
         """(n, 3) the exact equilibrium positions."""
         raise NotImplementedError
-
-    def t_end(self, p):
-        return 1.0
-
-    def dts(self, p):
-        return [1.0]
-
-    def reference_dt(self, p):
-        return 1.0
 
     def bodies(self, p):
         return len(self.mesh(p))

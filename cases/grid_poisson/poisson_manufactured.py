@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-from refsim.case import EPS, Case, Param
+from refsim.case import EPS, Param, SteadyCase
 from refsim.models.grid_laplacian import GridLaplacian
 from refsim.models.multigrid import multigrid_reason
 from refsim.scene import Grid, Scene
@@ -53,7 +53,7 @@ def lambda_min(dim: int, h: float) -> float:
     return dim * 4.0 / h ** 2 * math.sin(0.5 * math.pi * h) ** 2
 
 
-class PoissonManufactured(Case):
+class PoissonManufactured(SteadyCase):
     name = "poisson_manufactured"
     description = ("5-/7-point Poisson with u = sin(pi x) sin(pi y) (3D: sin(pi z)): exact "
                    "discrete solution [pi^2 h^2 / (4 sin^2(pi h/2))] u; solver error and "
@@ -74,9 +74,7 @@ class PoissonManufactured(Case):
                 "poly_2d": {"solution": "polynomial"},
                 "poly_2d_1025": {"solution": "polynomial", "points": 1025}}
     default_variants = quick_variants = ("2d", "poly_2d")
-    order_meaningful = False
     tolerance_norm = "err_residual"  # the error in the L_h norm, relative (module doc)
-    initial_state_is_reference = False  # the reference is the converged solve, not the guess
 
     # -- grid and fields ----------------------------------------------------------------------
     @staticmethod
@@ -133,16 +131,6 @@ class PoissonManufactured(Case):
 
     def bodies(self, p):
         return int(p["points"]) ** int(p["dim"])
-
-    # -- pseudo-time: one step is one solve ---------------------------------------------------
-    def t_end(self, p):
-        return 1.0
-
-    def dts(self, p):
-        return [1.0]
-
-    def reference_dt(self, p):
-        return 1.0
 
     # -- observables and reference ------------------------------------------------------------
     def observables(self, p, obs):
