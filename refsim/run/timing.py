@@ -63,19 +63,13 @@ def timing_pass(engine, scene, job, steps, timed, repeats, budget_s):
     least = min(2, max(1, repeats))
     while len(times) < max(1, repeats) and not (
             len(times) >= least and (_spread(times) <= TIMING_SPREAD or spent >= budget_s)):
-        sim, setup_s = build_sim(engine, scene, job)
-        t0 = time.perf_counter()
-        sim.step(timed)
-        times.append(time.perf_counter() - t0)
-        sim.close()
+        elapsed, setup_s = timed_run(engine, scene, job, timed)
+        times.append(elapsed)
         setups.append(setup_s)
-        spent += times[-1]
+        spent += elapsed
     while len(ones) < len(times):
-        sim, setup_s = build_sim(engine, scene, job)
-        t0 = time.perf_counter()
-        sim.step(1)
-        ones.append(time.perf_counter() - t0)
-        sim.close()
+        elapsed, setup_s = timed_run(engine, scene, job, 1)
+        ones.append(elapsed)
         setups.append(setup_s)
     best, call, spread = min(times), min(ones), _spread(times)
     scale = steps / timed
@@ -90,14 +84,20 @@ def timing_pass(engine, scene, job, steps, timed, repeats, budget_s):
             "timing": f"fresh models, min of {len(times)}{settled}{stretch}{dominated}"}
 
 
-def whole_run_s(engine, scene, job, steps) -> float:
-    """The time of one fresh model stepped `steps` steps in one call, nothing observed."""
-    sim, _ = build_sim(engine, scene, job)
+def timed_run(engine, scene, job, steps) -> tuple[float, float]:
+    """(time of one fresh model stepped `steps` steps in one call, nothing observed; its
+    setup time)."""
+    sim, setup_s = build_sim(engine, scene, job)
     t0 = time.perf_counter()
     sim.step(steps)
     elapsed = time.perf_counter() - t0
     sim.close()
-    return elapsed
+    return elapsed, setup_s
+
+
+def whole_run_s(engine, scene, job, steps) -> float:
+    """The time of one fresh model stepped over the whole run in one call."""
+    return timed_run(engine, scene, job, steps)[0]
 
 
 def _spread(times) -> float:
@@ -112,11 +112,7 @@ def _probe_stretch(engine, scene, job, steps, timed):
     measure (the whole run when it fits), at most PROBES of them. Returns N' and the probe's
     time as the first timed run when the last probe ran the final N' ([] otherwise)."""
     for _ in range(PROBES):
-        sim, _ = build_sim(engine, scene, job)
-        t0 = time.perf_counter()
-        sim.step(timed)
-        probe = time.perf_counter() - t0
-        sim.close()
+        probe = timed_run(engine, scene, job, timed)[0]
         if timed >= steps or probe >= LONG_RUN_S / 4:
             return timed, [probe]
         timed = min(steps, int(timed * LONG_RUN_S / max(probe, 1e-9)))
