@@ -22,7 +22,7 @@ from refsim.case import EPS, SteadyCase
 from refsim.models.fem_assembly import Assembler
 from refsim.models.fem_model import ElasticBody
 
-NEWTON_RTOL = 1e-12  # what an engine's static solve is asked to reach (the refsim engine's)
+NEWTON_RTOL = 1e-12  # the solve's stop where the row's settings name none (`newton_rtol`)
 ROUNDING_TERMS = 64  # products summed into one nodal force (valence x element dofs) and the
 #                      differences x_b - x_a each carries, a generous count for P1 meshes
 
@@ -86,22 +86,24 @@ class StaticCase(SteadyCase):
     def loads(self, p) -> np.ndarray:
         return np.asarray(self.mesh(p).loads)
 
-    def solve_bound(self, p) -> tuple[float, str]:
-        """(bound on ||x - x*||_2 in m, its reason): module docstring."""
+    def solve_bound(self, p, rtol=NEWTON_RTOL) -> tuple[float, str]:
+        """(bound on ||x - x*||_2 in m, its reason) for a solve stopping at `rtol` of the
+        force scale: module docstring."""
         mesh, exact = self.mesh(p), self.exact(p)
         lam_min, lam_max = free_stiffness_extremes(mesh, exact)
         scale = max(np.abs(self.loads(p)).max(initial=0.0),
                     np.abs(internal_forces(mesh, exact)).max(initial=0.0))
         size = float(np.abs(exact).max())
         dofs = (len(mesh) - len(mesh.pinned)) * ElasticBody.of(mesh).d
-        stop = NEWTON_RTOL * scale
+        stop = rtol * scale
         rounding = ROUNDING_TERMS * EPS * lam_max * size
         bound = np.sqrt(dofs) * max(stop, rounding) / lam_min + np.sqrt(3 * len(mesh)) * EPS * size
         return float(bound), (
             f"||x - x*||_2 <= sqrt({dofs} dofs) max|r| / lambda_min(K) = "
-            f"{lam_min:.4g} N/m: max|r| the larger of the solve's stop {NEWTON_RTOL:g} x "
+            f"{lam_min:.4g} N/m: max|r| the larger of the solve's stop {rtol:g} x "
             f"{scale:.3g} N and the forces' rounding {ROUNDING_TERMS} eps lambda_max "
             f"{lam_max:.3g} N/m x max|x| {size:.3g} m; plus the reference's rounding")
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        return self.solve_bound(p)
+        """The static solve's bound at the rtol the row's engine states (`newton_rtol`)."""
+        return self.solve_bound(p, float((settings or {}).get("newton_rtol", NEWTON_RTOL)))

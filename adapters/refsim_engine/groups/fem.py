@@ -25,6 +25,7 @@ import numpy as np
 
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
+from refsim.integrators.spec import spec_name
 from refsim.models.fem_static import solve_static
 from refsim.models.fem_system import FemSystem
 from refsim.scene import TetMesh, TriangleMesh
@@ -54,7 +55,7 @@ def supports(engine, scene, integrator):
         return (f"refsim fem: one mesh alone, got also "
                 f"{', '.join(sorted(scene.part_kinds() - {'meshes'}))}")
     static = scene.meta.get("solve") == "static"
-    name = (integrator or "").split(":")[0]
+    name = spec_name(integrator)
     if name and static and name != "steady":
         return ("refsim fem: the scene asks for its static equilibrium (meta solve = static), "
                 "solved by 'steady', not stepped by " + name)
