@@ -44,9 +44,9 @@ class PatchTest(StaticCase):
     }
     variants = {"linear": {}, "green": {"strain": "green"},
                 "corotated": {"strain": "corotated"}, "neo_hookean": {"strain": "neo_hookean"},
-                "tet_corotated": {"strain": "corotated", "element": "tetrahedron", "cells": 2},
+                "tet_corotated": {"strain": "corotated", "element": "tetrahedron", "cells": 3},
                 "tet_neo_hookean": {"strain": "neo_hookean", "element": "tetrahedron",
-                                    "cells": 2}}
+                                    "cells": 3}}
     quick_variants = ("linear",)
 
     def _geometry(self, p):

@@ -23,8 +23,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .fem_assembly import Assembler
-from .fem_model import ElasticBody
+from .fem_printed import body_and_assembler
 
 
 def _world_map(body, n):
@@ -35,11 +34,12 @@ def _world_map(body, n):
 
 
 class FemSystem:
-    """One FEM mesh under gravity, its nodal loads and optional Rayleigh damping."""
+    """One FEM mesh under gravity, its nodal loads and optional Rayleigh damping; `formulation`
+    "as_printed" takes slide 001's printed nodal force (refsim.models.fem_printed)."""
 
-    def __init__(self, mesh, gravity=(0.0, 0.0, 0.0), rayleigh=(0.0, 0.0)):
-        self.mesh, self.body = mesh, ElasticBody.of(mesh)
-        self.assembler = Assembler(self.body)
+    def __init__(self, mesh, gravity=(0.0, 0.0, 0.0), rayleigh=(0.0, 0.0), formulation=""):
+        self.mesh = mesh
+        self.body, self.assembler = body_and_assembler(mesh, formulation)
         self.n_nodes = len(mesh)
         self.free = np.ones(self.n_nodes, bool)
         self.free[mesh.pinned] = False

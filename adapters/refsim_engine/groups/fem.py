@@ -15,6 +15,10 @@ and any other scene only
   the explicit steppers, implicit Euler and Baraff-Witkin (sparse from SPARSE_MIN dofs).
   A plastic material commits its plastic strain after every accepted step.
 
+Formulations: "" the correct nodal forces; "as_printed" slide 001's printed nodal force
+f_i = Q sigma n_i (unit normals, no face weight: refsim.models.fem_printed says what it does),
+run beside it so that the harness shows the slip, in both ways of running.
+
 Observes x, v (n, 3) of every node (pinned ones included), and for "steady" `residual` (max
 |f_int + f_ext| on the free dofs at the end, N) and `iterations` (Newton iterations of the last
 solve; 0 before any).
@@ -26,6 +30,7 @@ import numpy as np
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.spec import spec_name
+from refsim.models import fem_printed
 from refsim.models.fem_static import solve_static
 from refsim.models.fem_system import FemSystem
 from refsim.scene import TetMesh, TriangleMesh
@@ -69,9 +74,9 @@ def supports(engine, scene, integrator):
 class StaticSim(Sim):
     """The mesh's static equilibrium, solved afresh from its initial positions every step."""
 
-    def __init__(self, scene, dt):
+    def __init__(self, scene, dt, formulation=""):
         self.dt, self.mesh = float(dt), _mesh(scene)
-        self.system = FemSystem(self.mesh, scene.gravity)
+        self.system = FemSystem(self.mesh, scene.gravity, formulation=formulation)
         self.x = self.system.full_positions(self.system.state()[0])
         self.residual, self.iterations = float("nan"), 0
 
@@ -101,8 +106,8 @@ class StaticSim(Sim):
 
 
 class DynamicSim(SteppedSim):
-    def __init__(self, scene, dt, integrator):
-        system = FemSystem(_mesh(scene), scene.gravity)
+    def __init__(self, scene, dt, integrator, formulation=""):
+        system = FemSystem(_mesh(scene), scene.gravity, formulation=formulation)
         super().__init__(dt, get_integrator(integrator), system, *system.state())
 
     def _step_impl(self, n):
@@ -123,13 +128,18 @@ class DynamicSim(SteppedSim):
         return {**self.base_settings(), "model": self.system.describe()}
 
 
+def formulations(engine, scene):
+    return ("", fem_printed.FORMULATION)
+
+
 def build(engine, scene, dt, integrator, formulation):
     if integrator == "steady":
-        return StaticSim(scene, dt)
-    return DynamicSim(scene, dt, integrator)
+        return StaticSim(scene, dt, formulation)
+    return DynamicSim(scene, dt, integrator, formulation)
 
 
 MODEL_GROUP = ModelGroup(name="fem", build=build, claims=claims,
                          parts=frozenset({"meshes"}),
                          features=frozenset({"fem", "gravity", "plasticity"}),
-                         supports=supports, integrators=INTEGRATORS)
+                         supports=supports, formulations=formulations,
+                         integrators=INTEGRATORS)
