@@ -23,16 +23,18 @@ class MujocoEngine(Engine):
         "grids": grid_refusal_sentence(
             "mujoco", "it simulates multibody dynamics, with flex meshes for soft bodies"),
         "fluid": "mujoco does not simulate fluid",  # MuJoCo has no SPH
-        "meshes": "the mujoco adapter has no finite-element group yet (MuJoCo 4 flex "
-                  "elasticity: to come)",
+        # the fem group (MuJoCo 4 flex, StVK) claims a scene of exactly one mesh
+        "meshes": "the mujoco adapter's fem group runs one mesh per scene (a MuJoCo 4 flex); "
+                  "several meshes are not offered",
         "emitter": "mujoco does not simulate emitter",
     }
 
     def build(self, scene, dt, integrator, formulation=""):
         """MuJoCo integrators are exact names (the base also accepts "name:parameter" and
-        None): an unknown one is refused first, then the base validates dt, formulation and
-        support."""
-        if integrator not in METHODS:
-            raise ValueError(f"mujoco integrator must be one of {list(METHODS)}, "
+        None), or a name the scene's model group offers ("steady" of the fem group): an
+        unknown one is refused first, then the base validates dt, formulation and support."""
+        allowed = set(METHODS) | set(self.offered_integrators(scene))
+        if integrator not in allowed:
+            raise ValueError(f"mujoco integrator must be one of {sorted(allowed)}, "
                              f"got {integrator!r}")
         return super().build(scene, dt, integrator, formulation)
