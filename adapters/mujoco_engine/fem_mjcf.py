@@ -6,7 +6,9 @@ plane motion), tetrahedra dim="3" dof="full" (slides x, y, z); `<pin id>` for pi
 (vertices on the world body, no joints); `<elasticity young poisson [thickness elastic2d=
 "stretch"] damping>` (MuJoCo's StVK on P1 elements: energy mu tr(E^2) + lambda/2 tr(E)^2 of the
 Green strain E, in 2D times the thickness with the plane-stress lambda* = E nu / (1 - nu^2);
-`damping` is Rayleigh, in time units: the damping force -damping K v); contacts off.
+`damping` is Rayleigh, in time units: the damping force -damping K v); contacts off. Plane
+strain is passed as the plane-stress constants of the same in-plane law (`flex_constants`);
+MuJoCo takes Poisson ratios in [0, 0.5) only (`constants_reason`).
 
 What the adapter sets after flexcomp expands it (MjSpec, then the compiled model):
 - masses: flexcomp spreads its `mass` equally over the vertices (pinned ones included); each
@@ -84,9 +86,32 @@ class FemLayout:
                 "split_over_lumped_max": float(ratio.max())}
 
 
+def flex_constants(mesh) -> tuple[float, float]:
+    """(young, poisson) for the flex. Plane strain on a 2-D flex, which is plane stress: the
+    in-plane law of (E, nu) in plane strain is the plane-stress law of E' = E / (1 - nu^2),
+    nu' = nu / (1 - nu) (the same mu = E / (2 (1 + nu)) and lambda* = E' nu' / (1 - nu'^2) =
+    E nu / ((1 + nu)(1 - 2 nu)), the 3-D lambda), exactly for StVK since E_zz = 0."""
+    e, nu = mesh.material.youngs_modulus, mesh.material.poisson_ratio
+    if isinstance(mesh, TriangleMesh) and mesh.plane == "strain":
+        return e / (1.0 - nu * nu), nu / (1.0 - nu)
+    return e, nu
+
+
+def constants_reason(mesh) -> str | None:
+    """Why MuJoCo cannot take the material's Poisson ratio (None when it can)."""
+    _, poisson = flex_constants(mesh)
+    if 0.0 <= poisson < 0.5:
+        return None
+    nu = mesh.material.poisson_ratio
+    if poisson != nu:
+        return (f"mujoco fem: plane strain maps to MuJoCo's plane-stress flex with poisson "
+                f"nu / (1 - nu) = {poisson:.6g}, outside MuJoCo's [0, 0.5) (nu >= 1/3)")
+    return f"mujoco fem: MuJoCo's flex takes a Poisson ratio in [0, 0.5), got {nu:g}"
+
+
 def _elasticity_xml(mesh, damping: float) -> str:
-    mat = mesh.material
-    out = (f'<elasticity young="{mat.youngs_modulus!r}" poisson="{mat.poisson_ratio!r}" '
+    young, poisson = flex_constants(mesh)
+    out = (f'<elasticity young="{young!r}" poisson="{poisson!r}" '
            f'damping="{float(damping)!r}"')
     if isinstance(mesh, TriangleMesh):
         out += f' thickness="{mesh.thickness!r}" elastic2d="stretch"'

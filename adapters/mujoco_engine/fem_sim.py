@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from .fem_mjcf import FemLayout, check_model, fem_model, mesh_of, vertex_dofs
+from .fem_mjcf import FemLayout, check_model, fem_model, flex_constants, mesh_of, vertex_dofs
 from .fem_settle import Settle, settle_plan
 from .point_masses import POINT_INERTIA
 from .sim import BAD_WARNINGS, MujocoSim
@@ -102,6 +102,7 @@ class MujocoFemSim(MujocoSim):
     def _fem_settings(self) -> dict:
         layout, mesh = self.layout, self.layout.mesh
         mat = mesh.material
+        young, poisson = flex_constants(mesh)
         out = {
             "model": {"law": "green (St Venant-Kirchhoff: MuJoCo flex's only law)",
                       "element": "P1 triangle" if layout.triangles else "P1 tetrahedron",
@@ -112,8 +113,8 @@ class MujocoFemSim(MujocoSim):
                            "<elasticity young poisson%s damping>" % (
                                ("2", "2d (slides x, y)", " thickness elastic2d=stretch")
                                if layout.triangles else ("3", "full (slides x, y, z)", "")),
-            "plane": "stress (MuJoCo 2-D flex: lambda* = E nu / (1 - nu^2), energy x "
-                     "thickness)" if layout.triangles else "3-D",
+            "plane": self._plane(),
+            "flex_young": young, "flex_poisson": poisson,
             "thickness": mesh.thickness if layout.triangles else None,
             "rayleigh_damping": self.rayleigh, "edge_stiffness": 0.0, "edge_damping": 0.0,
             "mass": "refsim's lumped rho V / (d + 1) per free vertex body (set in the "
@@ -136,6 +137,17 @@ class MujocoFemSim(MujocoSim):
         return out
 
 
+    def _plane(self) -> str:
+        if not self.layout.triangles:
+            return "3-D"
+        text = ("stress (MuJoCo's 2-D flex: lambda* = E nu / (1 - nu^2), energy x "
+                "thickness)")
+        if self.layout.mesh.plane == "strain":
+            text = ("strain, run as " + text + " with E' = E / (1 - nu^2), nu' = nu / "
+                    "(1 - nu): the same in-plane StVK law (mu, and lambda* = the 3-D lambda)")
+        return text
+
+
 class MujocoFemSettle(MujocoFemSim):
     """"steady": one step is one complete settle from the initial state by MuJoCo's Euler with
     mass-proportional damping (fem_settle), stopped by its rule; observes `residual` (max
@@ -150,6 +162,7 @@ class MujocoFemSettle(MujocoFemSim):
 
     def _set_initial_state(self):
         super()._set_initial_state()
+        self.data.qvel[:] = 0.0  # a static scene's equilibrium is sought from rest
         self.residual, self.iterations, self.stopped = float("nan"), 0, ""
         self._x = self.positions()
 

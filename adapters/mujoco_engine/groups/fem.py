@@ -7,8 +7,9 @@ bodies (flexcomp's own split is equal per vertex: settings `mass_split`).
 The law: MuJoCo's flex implements St Venant-Kirchhoff on linear elements only (Green strain
 E = 1/2 (F^T F - I), energy mu tr(E^2) + lambda/2 tr(E)^2): refsim's "green". The other strain
 measures (linear, corotated, neo_hookean) are refused with that reason; so are plasticity (flex
-`yield` is not mapped here), plane strain (MuJoCo's 2-D flex is plane stress) and triangle
-meshes outside a z = const plane (dof="2d" moves in x and y).
+`yield` is not mapped here), Poisson ratios outside MuJoCo's [0, 0.5) and triangle meshes
+outside a z = const plane (dof="2d" moves in x and y). Plane strain runs on the plane-stress
+flex with E' = E / (1 - nu^2), nu' = nu / (1 - nu): the same in-plane StVK law (nu < 1/3).
 
 Two ways to run it, chosen by the scene as in the in-house group:
 - a static scene (meta solve = "static"): MuJoCo has no static solve, so "steady" is damped
@@ -27,7 +28,6 @@ from __future__ import annotations
 
 from refsim.engine import ModelGroup
 from refsim.integrators.spec import spec_name
-from refsim.scene import TriangleMesh
 
 WHO = "mujoco fem"
 STEPPERS = ("symplectic_euler", "rk4", "discrete")
@@ -81,18 +81,15 @@ def claims(scene) -> bool:
 
 
 def _mesh_reason(mesh) -> str | None:
-    from ..fem_mjcf import plane_reason
+    from ..fem_mjcf import constants_reason, plane_reason
     if mesh.material.strain != "green":
         return LAW_REASON.format(strain=repr(mesh.material.strain))
     if mesh.material.plasticity is not None:
         return (f"{WHO}: plasticity is not mapped (MuJoCo's flex yield is ideal von Mises on "
                 "its own strain; not matched to refsim's rule yet)")
-    if isinstance(mesh, TriangleMesh) and mesh.plane != "stress":
-        return (f"{WHO}: MuJoCo's 2-D flex is plane stress (lambda* = E nu / (1 - nu^2)); "
-                "plane strain is not offered")
     if len(mesh.pinned) == len(mesh):
         return f"{WHO}: every node pinned, nothing to simulate"
-    return plane_reason(mesh)
+    return plane_reason(mesh) or constants_reason(mesh)
 
 
 def supports(engine, scene, integrator):

@@ -79,28 +79,32 @@ def test_a_young_modulus_0_1_percent_off_moves_lambda_beyond_the_bound():
     assert error > 1e3 * case.solve_bound(p)[0], error
 
 
-def _dynamic_scene(strain="green", tets=False):
-    """A 3 x 2 strip (or a tet cube) pinned on its left, released stretched and bent, g on."""
+def _dynamic_scene(plane="stress", nu=0.3):
+    """A 3 x 2 strip pinned on its left, released stretched and bent, gravity on."""
     nodes, tris = rectangle_triangles(3, 2, 1.0, 0.5)
     left = np.flatnonzero(nodes[:, 0] == 0)
     pos = nodes.copy()
     pos[:, 0] *= 1.05
     pos[:, 1] += 0.02 * nodes[:, 0] ** 2
     pos[left] = nodes[left]
-    mesh = TriangleMesh(nodes, tris, Material(1000.0, 0.3, 2.0, strain), thickness=0.1,
-                        pinned=left, positions=pos)
+    mesh = TriangleMesh(nodes, tris, Material(1000.0, nu, 2.0, "green"), thickness=0.1,
+                        plane=plane, pinned=left, positions=pos)
     return Scene(parts=(mesh,), gravity=(0.0, -9.81, 0.0))
 
 
-@pytest.mark.parametrize("mine, theirs", [("symplectic_euler", "symplectic_euler"),
-                                          ("rk4", "rk4")])
-def test_euler_and_rk4_step_as_refsims_steppers(mine, theirs):
+@pytest.mark.parametrize("mine, theirs, plane", [
+    ("symplectic_euler", "symplectic_euler", "stress"), ("rk4", "rk4", "stress"),
+    ("symplectic_euler", "symplectic_euler", "strain")])
+def test_euler_and_rk4_step_as_refsims_steppers(mine, theirs, plane):
     """Same masses (lumped), same StVK forces, same step: the two engines agree to round-off
     over 2000 steps of a vibrating strip (motion 0.05 m). Only the force sums' order differs
     (about eps x the elastic forces per step, carried by a stable oscillation): measured x
     within 5.5e-15 m, v within 6.7e-13 m/s; bound 1e-12 m, 1e-10 m/s (2000 steps x 100 eps
-    of the 1-10 m/s^2 x dt scale, rounded up)."""
-    scene = _dynamic_scene()
+    of the 1-10 m/s^2 x dt scale, rounded up). Plane strain (nu = 0.3) through the
+    plane-stress constants E / (1 - nu^2), nu / (1 - nu) holds to the same bound: the mapping
+    is exact (planted by hand: lambda 1 % high leaves 6.1e-3 m, plane stress constants used
+    as they are 8.5e-2 m)."""
+    scene = _dynamic_scene(plane)
     a, b = MJ.build(scene, 1e-3, mine), RS.build(scene, 1e-3, theirs)
     a.step(2000)
     b.step(2000)
@@ -195,9 +199,9 @@ def test_other_refusals():
                            Material(1000.0, 0.3, 2.0, "green", Plasticity(10.0)),
                            thickness=0.1, pinned=mesh.pinned)
     assert "plasticity" in MJ.supports(Scene(parts=(plastic,)))
-    strain = TriangleMesh(mesh.vertices, mesh.triangles, mesh.material, plane="strain",
-                          pinned=mesh.pinned)
-    assert "plane stress" in MJ.supports(Scene(parts=(strain,)))
+    assert "nu >= 1/3" in MJ.supports(_dynamic_scene("strain", nu=0.34))
+    assert MJ.supports(_dynamic_scene("strain", nu=0.33)) is None
+    assert "[0, 0.5)" in MJ.supports(_dynamic_scene(nu=-0.1))  # MuJoCo's own range
     tilted = mesh.vertices[:, [0, 2, 1]]  # the x-z plane
     assert "z = const" in MJ.supports(Scene(parts=(TriangleMesh(
         tilted, mesh.triangles, mesh.material, pinned=mesh.pinned),)))
