@@ -25,17 +25,28 @@ from refsim.models.fem_model import ElasticBody
 NEWTON_RTOL = 1e-12  # the solve's stop where the row's settings name none (`newton_rtol`)
 ROUNDING_TERMS = 64  # products summed into one nodal force (valence x element dofs) and the
 #                      differences x_b - x_a each carries, a generous count for P1 meshes
+DENSE_DOFS = 1200  # free dofs up to which the stiffness' extremes come from a dense solve
+EIGSH_TOL = 1e-8  # ARPACK's relative tolerance on the extremes above that
 
 
 def free_stiffness_extremes(mesh, x) -> tuple[float, float]:
     """(lambda_min, lambda_max) of the tangent stiffness on the free dofs at world positions x
-    (n, 3), dense (the static cases' meshes have a few hundred dofs)."""
+    (n, 3): dense up to DENSE_DOFS free dofs; above, ARPACK (scipy eigsh: the largest, and
+    the smallest by shift-invert about 0) to a relative EIGSH_TOL, lambda_min taken that much
+    lower and lambda_max that much higher so that the bound only widens."""
     body = ElasticBody.of(mesh)
-    k = Assembler(body).stiffness(body.to_local(x)).toarray()
+    k = Assembler(body).stiffness(body.to_local(x)).tocsr()
     free = np.repeat(np.ones(len(mesh), bool), body.d)
     free.reshape(len(mesh), body.d)[mesh.pinned] = False
-    eig = np.linalg.eigvalsh(k[np.ix_(free, free)])
-    return float(eig[0]), float(eig[-1])
+    k = k[free][:, free]
+    if k.shape[0] <= DENSE_DOFS:
+        eig = np.linalg.eigvalsh(k.toarray())
+        return float(eig[0]), float(eig[-1])
+    from scipy.sparse.linalg import eigsh
+    top = eigsh(k, 1, which="LA", tol=EIGSH_TOL, return_eigenvectors=False)[0]
+    low = eigsh(k.tocsc(), 1, sigma=0.0, which="LM", tol=EIGSH_TOL,
+                return_eigenvectors=False)[0]
+    return float(low) * (1 - 10 * EIGSH_TOL), float(top) * (1 + 10 * EIGSH_TOL)
 
 
 def internal_forces(mesh, x) -> np.ndarray:
