@@ -23,9 +23,10 @@ What the adapter sets after flexcomp expands it (MjSpec, then the compiled model
 - mass-proportional damping (the settle of groups/fem.py, "steady"): a fixed tendon per slide
   with damping alpha m (force -alpha m v on that dof), because MuJoCo takes no joint damping on
   flex vertex bodies.
-The compiler's warning that such a flex "is not rigid and has no ... passive forces" (damping 0)
-is spurious (its elastic forces act) and silenced. Loads go through `d.xfrc_applied[m.flex_vertbodyid[v], :3]` (constant), gravity through the
-option. Triangle meshes must lie in a z = const plane (dof="2d" moves in x and y).
+The compiler's warning that such a flex "is not rigid and has no ... passive forces" (damping
+0) is spurious (its elastic forces act) and silenced. Loads go through
+`d.xfrc_applied[m.flex_vertbodyid[v], :3]` (constant), gravity through the option. Triangle
+meshes must lie in a z = const plane (dof="2d" moves in x and y).
 """
 from __future__ import annotations
 
@@ -195,6 +196,8 @@ def check_model(model, layout, rayleigh: float, alpha: float) -> None:
             model.flex_damping[0] == rayleigh and not model.dof_damping.any() and
             model.flex_edgestiffness[0] == 0 and model.flex_edgedamping[0] == 0 and
             not model.dof_armature.any() and model.ntendon == n_tendons and
-            not model.tendon_stiffness.any())
+            not model.tendon_stiffness.any() and
+            np.array_equal(model.tendon_damping, alpha * np.repeat(layout.masses[free],
+                                                                   layout.dof)[:n_tendons]))
     if not same:
         raise RuntimeError("mujoco compiled another flex/masses/damping than the mesh's")

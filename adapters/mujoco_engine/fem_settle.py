@@ -6,12 +6,13 @@ Parameters, from the free dofs' stiffness K of refsim's assembly of the same StV
 lumped masses M (used only to choose them): omega_min the lowest angular frequency of M^-1 K
 at rest, omega_max the highest at rest or at the initial positions, whichever is higher (an
 imposed boundary field strains the elements next to it most at the start: at 16 x 16 cells
-the patch test's start has 5.7 x the rest's omega_max^2); alpha = 2 omega_min, so the slowest mode is critically damped
-and every faster one decays at the same rate alpha / 2 = omega_min (its damping ratio
-omega_min / omega < 1); timestep h the root of (h omega_max)^2 + 2 h alpha = LIMIT_FRACTION x 4
-(Euler with an explicit damping force is stable for (h omega)^2 + 2 h alpha < 4 and h alpha <
-2, from the trace and determinant of its step matrix), so h omega_max <= sqrt(2) and a mode
-may stiffen by a factor of 2 in omega^2 before the step goes unstable.
+the patch test's start has 5.7 x the rest's omega_max^2); alpha = 2 omega_min, so the
+slowest mode is critically damped and every faster one decays at the same rate alpha / 2 =
+omega_min (its damping ratio omega_min / omega < 1); timestep h the root of
+(h omega_max)^2 + 2 h alpha = LIMIT_FRACTION x 4 (Euler with an explicit damping force is
+stable for (h omega)^2 + 2 h alpha < 4 and h alpha < 2, from the trace and determinant of its
+step matrix), so h omega_max <= sqrt(2) and a mode may stiffen by a factor of 2 in omega^2
+before the step goes unstable.
 
 Stop rule, checked every `check_every` steps (a quarter of the slowest mode's e-folding time)
 on MuJoCo's own forces after its forward pass: the residual r = elastic + external force

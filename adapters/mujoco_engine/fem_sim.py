@@ -24,8 +24,6 @@ _PARTICLE_KEYS = ("contacts", "inertia", "drag", "bodies", "eulerdamp")
 class MujocoFemSim(MujocoSim):
     """The mesh's flex stepped by MuJoCo's integrator (`method`) at the scene's dt."""
 
-    steady = False
-
     def __init__(self, scene, dt, integrator, method, treated_implicitly: str):
         import mujoco
         self.mj, self.scene, self.dt = mujoco, scene, float(dt)
@@ -153,8 +151,6 @@ class MujocoFemSettle(MujocoFemSim):
     mass-proportional damping (fem_settle), stopped by its rule; observes `residual` (max
     |elastic + external force| on the free dofs at the end, MuJoCo's own forces, N) and
     `iterations` (MuJoCo steps of the last settle)."""
-
-    steady = True
 
     def _damping_and_step(self):
         self.plan = settle_plan(self.layout)
