@@ -1,7 +1,7 @@
 """The taichi engine: who it is (name, package, dimensions, steppers) and why it refuses what no
 model group runs (`refusals`). What it runs is its model groups (groups/): particles, spheres,
 sph, rigid, pivots, gravity_pairs, lennard_jones, flocking, emitter, first_order_fields,
-spring_network, grid_evolution, grid_poisson."""
+spring_network, grid_evolution, grid_poisson, fem."""
 from __future__ import annotations
 
 from refsim.engine import Engine

@@ -1,0 +1,321 @@
+"""taichi's finite-element group (slides 001 and 000; issue 26): one P1 mesh part
+(`TriangleMesh` in plane stress or plane strain, or `TetMesh`) of one material, the four laws
+of refsim.models.fem_laws (linear = Cauchy as printed, green = StVK, corotated, neo_hookean =
+Smith et al. 2018) as float64 kernels (`fem_kernels`, `fem_stress`): F = Ds Dm^-1, the first
+Piola stress, f = -V P Dm^-T scattered into the nodes, lumped masses rho V / (d + 1) per
+element node (refsim's FemSystem's), constant nodal loads and gravity; pinned nodes held at
+the mesh's `positions`. Kernels work in the body's coordinates (the triangles' plane, d = 2,
+or the world, d = 3); the rest shape (Dm^-1, V, the plane's basis, the law's mu, lam, alpha)
+is refsim's ElasticBody's, computed once per build in numpy.
+
+As refsim's fem group, the scene chooses:
+- `scene.meta["solve"] == "static"`: only "steady", one `step()` = one complete static Newton
+  solve from the initial positions. Each iteration a kernel enters the tangent K = -df/dx of
+  the free dofs as triplets into a ti.linalg.SparseMatrixBuilder (f64; one directional
+  derivative dP(F; dF) of the law per element dof, closed form as refsim's) and
+  ti.linalg.SparseSolver(LDLT, AMD; Eigen's SimplicialLDLT, float64) solves K dx = f_int +
+  f_ext, the pattern analysed once per Sim. A direct solve, not a kernel CG: it is the same
+  Newton as refsim's (exact linear solves, quadratic convergence, the same iteration counts
+  and the same stopping rule: max |residual| <= NEWTON_RTOL x the force scale, or an update
+  under the positions' round-off, or one step for the linear law), so the two rows differ by
+  the solves' round-off only; a CG would add its own stopping tolerance to every iteration.
+- any other scene: explicit_euler, symplectic_euler, velocity_verlet or rk4 with refsim's
+  arithmetic, the time loop inside one kernel per Sim.step(n) (serialized).
+Refused: plasticity (no von Mises return in these kernels), contact, other parts, implicit
+steppers (no implicit kernels here: refsim's implicit_euler and baraff_witkin are not
+mirrored). Observes x, v (n, 3) of every node (pinned ones at their positions, v = 0), and
+for "steady" `residual` (max |f_int + f_ext| on the free dofs, N) and `iterations`.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from refsim.engine import EngineFailure, ModelGroup, Sim
+from refsim.integrators import get_integrator
+from refsim.integrators.spec import spec_name
+from refsim.models.fem_model import ElasticBody
+from refsim.scene import TetMesh, TriangleMesh
+
+from ..kernel_store import arrays_setting, to_taichi
+
+STEPPERS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4")
+INTEGRATORS = ("steady",) + STEPPERS
+STEADY = {"name": "steady", "order": 0, "family": "static solve (Newton)", "explicit": False,
+          "symplectic": False}
+NEWTON_RTOL = 1e-12  # refsim's fem group's: the static cases' bound reads it from settings
+MAX_ITER = 50  # refsim's solve_static default
+ROUND_OFF = 16 * np.finfo(float).eps  # an update below this x max |x| moves nothing (refsim)
+NATIVE = {"explicit_euler": "kernel: x += h v; v += h a(x) (from the old state)",
+          "symplectic_euler": "kernel: v += h a(x); x += h v",
+          "velocity_verlet": "kernel: v += h/2 a; x += h v; a = a(x); v += h/2 a",
+          "rk4": "kernel: classical 4-stage Runge-Kutta on (x, v), refsim's stage sums"}
+
+
+def _mesh(scene):
+    meshes = scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh)
+    return meshes[0] if len(meshes) == 1 else None
+
+
+def claims(scene) -> bool:
+    return _mesh(scene) is not None
+
+
+def supports(engine, scene, integrator):
+    if scene.part_kinds() != {"meshes"}:
+        return (f"taichi fem: one mesh alone, got also "
+                f"{', '.join(sorted(scene.part_kinds() - {'meshes'}))}")
+    mesh = _mesh(scene)
+    if mesh.material.plasticity is not None:
+        return "taichi fem: no plasticity kernels (von Mises return only in refsim's model)"
+    if len(mesh.pinned) == len(mesh):
+        return "taichi fem: every node is pinned (nothing moves)"
+    if scene.contact is not None:
+        return "taichi fem: no contact (the mesh is alone)"
+    static = scene.meta.get("solve") == "static"
+    name = spec_name(integrator)
+    if name and static and name != "steady":
+        return ("taichi fem: the scene asks for its static equilibrium (meta solve = static), "
+                "solved by 'steady', not stepped by " + name)
+    if name and not static and name not in STEPPERS:
+        return (f"taichi fem steps a dynamic scene with {', '.join(STEPPERS)} (no implicit "
+                f"kernels), not {name}")
+    return None
+
+
+class FemData:
+    """One mesh's kernel arguments: the argpack (rest shape from refsim's ElasticBody, law
+    constants, masses and ext filled by the setup kernel) and the body for the coordinates."""
+
+    def __init__(self, mesh, gravity):
+        from ..fem_kernels import kernels
+        self.mesh, self.body = mesh, ElasticBody.of(mesh)
+        elements, law = self.body.elements, self.body.law
+        self.d, self.n = elements.d, elements.n
+        self.plane_strain = getattr(mesh, "plane", "") == "strain" and self.d == 2
+        inner = getattr(law, "law", law)  # plane strain wraps the 3D law
+        self.law = {"name": law.name, "mu": inner.mu, "lam": inner.lam,
+                    "alpha": float(getattr(inner, "alpha", 0.0))}
+        self.k = kernels(self.d, law.name, self.plane_strain)
+        free = np.ones(self.n, bool)
+        free[mesh.pinned] = False
+        self.free = free
+        self.free_index = np.where(free, np.cumsum(free) - 1, -1).astype(np.int32)
+        d, vec = self.d, self.k.vec
+        self.arrays = {
+            "cells": to_taichi(elements.cells.astype(np.int32), self.k.cell),
+            "dm_inv": to_taichi(elements.dm_inv, self.k.mat),
+            "volume": to_taichi(elements.volume), "mass": to_taichi(np.zeros(self.n)),
+            "inv_m": to_taichi(np.zeros(self.n)),
+            "loads": to_taichi(self.body.to_local(mesh.loads), vec),
+            "ext": to_taichi(np.zeros((self.n, d)), vec),
+            "free_index": to_taichi(self.free_index)}
+        self.pack = self.k.pack_t(**self.arrays, density=float(mesh.material.density),
+                                  gravity=vec(*self.body.to_local(np.asarray(gravity, float))),
+                                  mu=self.law["mu"], lam=self.law["lam"],
+                                  alpha=self.law["alpha"])
+        self.k.setup(self.pack)
+
+    def masses(self) -> np.ndarray:
+        return self.arrays["mass"].to_numpy()
+
+    def external(self) -> np.ndarray:
+        """(n, d) loads + m g in the body's coordinates."""
+        return self.arrays["ext"].to_numpy()
+
+    def local(self, world) -> np.ndarray:
+        """A writable C-contiguous copy in body coordinates (the kernels write it in place;
+        a read-only array, as the mesh's own, would be copied by taichi and left unchanged)."""
+        return np.array(self.body.to_local(world), dtype=np.float64, order="C", copy=True)
+
+    def world(self, x, vectors=False) -> np.ndarray:
+        """(n, 3) world points (pinned nodes exactly at the mesh's positions) or vectors."""
+        out = np.array(self.body.to_world(x, vectors=vectors), float)
+        if not vectors:
+            out[~self.free] = self.mesh.positions[~self.free]
+        return out
+
+    def forces(self, x) -> np.ndarray:
+        """(n, d) elastic nodal forces at body coordinates x (the kernel; for tests)."""
+        f = np.zeros((self.n, self.d))
+        self.k.forces(self.pack, np.ascontiguousarray(x, dtype=np.float64), f)
+        return f
+
+    def model(self) -> dict:
+        return {"law": self.law["name"], "mu": self.law["mu"], "lam": self.law["lam"],
+                "alpha": self.law["alpha"], "elements": len(self.body.elements.cells), "nodes": self.n,
+                "element": "P1 triangle" if self.d == 2 else "P1 tetrahedron",
+                "plane": (getattr(self.mesh, "plane", None) if self.d == 2 else None),
+                "free_nodes": int(self.free.sum()), "pinned": int(len(self.mesh.pinned)),
+                "mass": "lumped (rho V / (d + 1) per element node, refsim's FemSystem's)",
+                "damping": "none", "rest_shape": "Dm^-1, V from refsim's ElasticBody (numpy)",
+                "rotation": ("2D closed form (c, s) = (F00 + F11, F10 - F01) / r"
+                             if self.d == 2 and not self.plane_strain else
+                             "ti.polar_decompose (Sifakis SVD, ~1e-10) + 2 Newton polish "
+                             "steps (round-off)") if self.law["name"] == "corotated" else None}
+
+
+def base_settings(sim) -> dict:
+    from ..runtime import THREADS, effective_config
+    return {"dtype": "float64", "threads": THREADS, **effective_config(),
+            "model": sim.data.model(), "arrays": arrays_setting("x", "v"),
+            "compile": "cold JIT in this build" if sim.cold else
+            "kernels already compiled in this process (launch time only)",
+            "force_sums": "per node in element order (atomic adds in a serialized loop)"}
+
+
+class FemKernelSim(Sim):
+    """A mesh stepped by one of STEPPERS, the time loop in one kernel per Sim.step(n)."""
+
+    def __init__(self, scene, dt, integrator):
+        from ..runtime import runtime
+        rt = runtime()
+        self.dt, self.integrator, self.steps = float(dt), integrator, 0
+        t0 = time.perf_counter()
+        self.data = data = FemData(_mesh(scene), scene.gravity)
+        self.x = data.local(data.mesh.positions)
+        v = np.array(data.mesh.velocities, float)
+        v[~data.free] = 0.0
+        self.v = data.local(v)
+        key = ("fem", data.d, data.law["name"], data.plane_strain, integrator)
+        self.cold = key not in rt["compiled"]
+        self._prepare()
+        self.advance(0)  # compiles on first use
+        rt["ti"].sync()
+        self.compile_s = time.perf_counter() - t0
+        rt["compiled"].add(key)
+
+    def _prepare(self):
+        k, p, shape = self.data.k, self.data.pack, (self.data.n, self.data.d)
+        name = self.integrator
+        if name == "rk4":
+            scratch = [to_taichi(np.zeros((4 * shape[0], shape[1])), k.vec) for _ in range(3)]
+            self.advance = lambda n: k.rk4(p, self.x, self.v, *scratch, self.dt, n)
+            return
+        self.a = np.zeros(shape)  # Verlet carries a(x) between calls
+        if name == "velocity_verlet":
+            k.velocity_verlet(p, self.x, self.v, self.a, self.dt, 0, 1)  # a = a(x0)
+            self.advance = lambda n: k.velocity_verlet(p, self.x, self.v, self.a, self.dt, n, 0)
+            return
+        stepper = getattr(k, name)
+        self.advance = lambda n: stepper(p, self.x, self.v, self.a, self.dt, n)
+
+    def _step_impl(self, n):
+        done = 0
+        while done < n:  # n is an i32 kernel argument
+            chunk = min(n - done, 2 ** 31 - 1)
+            self.advance(chunk)
+            done += chunk
+        if not np.all(np.isfinite(self.x)):
+            raise EngineFailure("taichi fem: non-finite node positions")
+
+    def _observe(self):
+        return {"x": self.data.world(self.x), "v": self.data.world(self.v, vectors=True)}
+
+    def settings(self):
+        described = get_integrator(self.integrator).describe()
+        return {"integrator": {**described, "native": NATIVE[self.integrator]},
+                **base_settings(self),
+                "time_loop": "inside one kernel per Sim.step(n), ti.loop_config(serialize="
+                             "True): sweeps over elements and nodes serial"}
+
+    def close(self):
+        self.advance = None
+
+
+class FemStaticSim(Sim):
+    """The mesh's static equilibrium, solved afresh from its initial positions every step
+    (module docstring)."""
+
+    def __init__(self, scene, dt):
+        from ..kernel_types import ti
+        from ..runtime import runtime
+        rt = runtime()
+        self.dt, self.steps = float(dt), 0
+        t0 = time.perf_counter()
+        self.data = data = FemData(_mesh(scene), scene.gravity)
+        self.x0 = data.local(data.mesh.positions)
+        self.x = self.x0.copy()
+        self.loads = np.where(data.free[:, None], data.external(), 0.0)
+        self.free_dofs = np.repeat(data.free, data.d)
+        size = int(self.free_dofs.sum())
+        triplets = len(data.body.elements.cells) * ((data.d + 1) * data.d) ** 2
+        self.builder = ti.linalg.SparseMatrixBuilder(size, size, max_num_triplets=triplets,
+                                                     dtype=ti.f64)
+        self.solver = ti.linalg.SparseSolver(dtype=ti.f64, solver_type="LDLT", ordering="AMD")
+        self.residual, self.iterations = float("nan"), 0
+        key = ("fem", data.d, data.law["name"], data.plane_strain, "steady")
+        self.cold = key not in rt["compiled"]
+        self.solver.analyze_pattern(self._stiffness(self.x))  # compiles; pattern found once
+        data.forces(self.x)
+        rt["ti"].sync()
+        self.compile_s = time.perf_counter() - t0
+        rt["compiled"].add(key)
+
+    def _stiffness(self, x):
+        self.data.k.stiffness(self.data.pack, x, self.builder)
+        return self.builder.build()
+
+    def _solve(self, x, rhs):
+        matrix = self._stiffness(x)
+        self.solver.factorize(matrix)
+        if not self.solver.info():
+            raise EngineFailure("taichi SparseSolver LDLT could not factorise the tangent "
+                                "stiffness")
+        return np.asarray(self.solver.solve(rhs), dtype=np.float64)
+
+    def _newton(self):
+        """refsim.models.fem_static's Newton loop, with the kernels' forces and tangent."""
+        x, free, linear = self.x0.copy(), self.free_dofs, self.data.law["name"] == "linear"
+        for iteration in range(MAX_ITER + 1):
+            f_int = self.data.forces(x)
+            residual = (f_int + self.loads).reshape(-1)[free]
+            scale = max(np.abs(self.loads).max(initial=0.0), np.abs(f_int).max(initial=0.0))
+            worst = np.abs(residual).max(initial=0.0)
+            if worst <= NEWTON_RTOL * scale or scale == 0.0:
+                return x, iteration, worst
+            if iteration == MAX_ITER:
+                break
+            flat = x.reshape(-1).copy()
+            dx = self._solve(x, residual)
+            flat[free] += dx
+            x = np.ascontiguousarray(flat.reshape(x.shape))
+            if linear or np.abs(dx).max(initial=0.0) <= ROUND_OFF * np.abs(flat).max():
+                return x, iteration + 1, worst
+        raise EngineFailure(f"taichi fem static Newton: max |residual| {worst:.3g} N above "
+                            f"{NEWTON_RTOL:g} x {scale:.3g} N after {MAX_ITER} iterations")
+
+    def _step_impl(self, n):
+        for _ in range(n):  # every step the same complete solve from the initial positions
+            self.x, self.iterations, residual = self._newton()
+            self.residual = float(residual)
+
+    def _observe(self):
+        return {"x": self.data.world(self.x), "v": np.zeros((self.data.n, 3)),
+                "residual": self.residual, "iterations": self.iterations}
+
+    def settings(self):
+        return {"integrator": dict(STEADY), **base_settings(self), "newton_rtol": NEWTON_RTOL,
+                "solver": "Newton on the free dofs: the tangent's triplets from a kernel into "
+                          "ti.linalg.SparseMatrixBuilder (f64), ti.linalg.SparseSolver LDLT "
+                          "(Eigen SimplicialLDLT, AMD, f64), pattern analysed once; stops at "
+                          "max |residual| <= newton_rtol x the force scale, at the positions' "
+                          "round-off, or after one step for the linear law (refsim's rule)",
+                "step": "one complete static solve from the initial positions",
+                "time_loop": "one Python iteration per Newton step (assembly kernel, solve)"}
+
+    def close(self):
+        self.builder = self.solver = None
+
+
+def build(engine, scene, dt, integrator, formulation):
+    if integrator == "steady":
+        return FemStaticSim(scene, dt)
+    return FemKernelSim(scene, dt, integrator)
+
+
+MODEL_GROUP = ModelGroup(name="fem", build=build, claims=claims,
+                         parts=frozenset({"meshes"}),
+                         features=frozenset({"fem", "gravity", "plasticity"}),
+                         supports=supports, integrators=INTEGRATORS)
