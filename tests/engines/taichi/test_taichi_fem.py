@@ -25,11 +25,13 @@ frequency's change between samples); explicit Euler grows the energy by (1 + y^2
 its G is 2 (1 + y^2)^(k/2), at y <= 0.1 here.
 """
 import dataclasses
+import json
 
 import numpy as np
 import pytest
 
 from refsim import registry
+from refsim.engine import jsonable
 from refsim.models.fem_laws import rotation_variant_svd
 from refsim.models.fem_meshes import box_tetrahedra, perturb_interior, rectangle_triangles
 from refsim.models.fem_model import ElasticBody
@@ -269,3 +271,9 @@ def test_settings_state_precision_solver_and_model():
     assert out["integrator"]["name"] == "steady" and out["model"]["law"] == "corotated"
     assert out["model"]["damping"] == "none" and "lumped" in out["model"]["mass"]
     assert sim.observe()["iterations"] > 1 and sim.compile_s > 0
+    json.dumps(jsonable(out))  # stored with the row
+    sim = TAICHI.build(Scene(parts=(mesh,)), 1e-3, "rk4")
+    out = sim.settings()
+    assert out["integrator"]["name"] == "rk4" and "kernel" in out["time_loop"]
+    assert out["model"]["free_nodes"] == 8 and out["model"]["pinned"] == 4
+    json.dumps(jsonable(out))
