@@ -5,8 +5,9 @@ pybullet steps with semi-implicit Euler, velocities then positions ("kick-drift"
 `symplectic_euler`). What it runs is its model groups (groups/): particles (Featherstone
 multibodies without contacts: point masses, rods, springs and drag), spheres (rigid spheres and
 static walls with contacts), gravity_pairs, rigid, pivots, rolling (contact_rolling.py) and
-spring_network. Every other scene is refused from `refusals`: grids (no finite-difference
-solver), an SPH fluid and the particle fields and meshes pybullet has no model of.
+spring_network, and fem (one tetrahedral Neo-Hookean mesh). Every other scene is refused from
+`refusals`: grids (no finite-difference solver), an SPH fluid, the particle fields pybullet has
+no model of, and several meshes in one scene.
 """
 from __future__ import annotations
 
@@ -16,8 +17,8 @@ from ..common.grid_pde import grid_refusal_sentence
 from .runtime import import_pybullet
 
 # part kinds refused with "pybullet does not simulate <kind>" (pybullet has no SPH, no pair
-# potentials or flocking rules, no particle fields, no FEM meshes)
-NOT_SIMULATED = ("emitter", "flocking", "fluid", "lennard_jones", "meshes", "surface_sampling",
+# potentials or flocking rules, no particle fields)
+NOT_SIMULATED = ("emitter", "flocking", "fluid", "lennard_jones", "surface_sampling",
                  "velocity_field")
 
 
@@ -30,6 +31,10 @@ class PybulletEngine(Engine):
         "grids": grid_refusal_sentence(
             "pybullet", "it simulates rigid bodies, multibodies and soft-body meshes"),
         **{kind: f"pybullet does not simulate {kind}" for kind in NOT_SIMULATED},
+        # a scene of one mesh goes to the fem group (groups/fem.py), which says why it
+        # refuses the meshes it cannot run; only a scene of several meshes reaches this line
+        "meshes": ("pybullet fem: one mesh per scene (a TetMesh of the neo_hookean law as "
+                   "pybullet's deformable body), got several"),
     }
 
     def available(self) -> bool:
