@@ -15,7 +15,7 @@ law but neo_hookean, plasticity, nodal loads (no force reaches a soft-body node)
 velocities (cannot be set), contacts, a static scene without pinned nodes.
 Observes x (getMeshData, float64) and v of every node: 0 for "steady", (x_n - x_{n-1}) / h
 when stepped; "steady" also `iterations` (pybullet steps of the last solve), `stages` and
-`error_floor` (m: the floor of the last stage's static error, fem_relax.py).
+`error_floor` (m: the static error floor of the stage kept, fem_relax.py).
 """
 from __future__ import annotations
 
@@ -133,7 +133,6 @@ class StaticSim(_Client, Sim):
             "w_min_rad_per_s": self.relaxation.w_min,
             "w_min_and_a_from": "refsim's model of the same law (rest stiffness, forces) with "
                                 "pybullet's masses: they choose h; the positions are pybullet's",
-            "stages_run": list(self.stage_log),
             "floor": "a stage settles to a static error of about 1e-8 m/s / (h w_min^2) (its "
                      "floor_m): the damping solve skips velocity changes under 1e-8 m/s",
             "step": "one complete static solve from the initial positions",
