@@ -141,7 +141,7 @@ class Relaxation:
         body = load_mesh(p, cid, self.mesh, self.tet_file, ratio * h, self.gravity, x)
         p.setPhysicsEngineParameter(fixedTimeStep=h, numSubSteps=0, physicsClientId=cid)
         window = max(STALL_MIN, math.ceil(STALL_HALVINGS * self.halving_steps(h, ratio)))
-        best, kept, steps, mark, accelerating = np.inf, x, 0, (np.inf, 0), True
+        best, kept, steps, mark, accelerating = np.inf, x, 0, (0.0, 0), True
         while True:
             p.stepSimulation(physicsClientId=cid)
             steps += 1
@@ -150,9 +150,9 @@ class Relaxation:
             x = new
             if move < best:
                 best, kept = move, x
-            accelerating = accelerating and move > mark[0] * (mark[1] > 0)
-            if move <= 0.5 * mark[0] or accelerating:
-                mark = (move, steps)  # halved, or still gathering speed from rest
+            accelerating = accelerating and move > mark[0]
+            if steps == 1 or accelerating or move < 0.5 * mark[0]:
+                mark = (move, steps)  # still gathering speed from rest, or halved
             if not move <= np.linalg.norm(np.ptp(x, axis=0)) or steps >= budget:
                 raise Unsettled(steps, move)
             if steps - mark[1] >= window:

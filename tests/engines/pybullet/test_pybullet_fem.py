@@ -18,6 +18,7 @@ from refsim_adapters.pybullet_engine.fem_softbody import (TetFile, load_mesh, ne
                                                           node_masses, node_positions)
 from refsim_adapters.pybullet_engine.fem_vtk import write_vtk
 from refsim_adapters.pybullet_engine.runtime import c_stdout_silenced
+from refsim_cases.fem._static import ROUNDING_TERMS, free_stiffness_extremes
 from refsim.models.fem_meshes import box_tetrahedra, rectangle_triangles
 from refsim.models.fem_model import ElasticBody
 from refsim.registry import get_case, get_engine
@@ -40,6 +41,16 @@ def bar(strain="neo_hookean", e=2e4, pinned="top", positions=None, loads=None, *
     pins = np.flatnonzero({"top": top, "ends": top | bottom, "none": top & bottom}[pinned])
     return TetMesh(nodes, tets, Material(e, 0.3, 100.0, strain), pinned=pins,
                    positions=positions, loads=loads, **mesh_kw)
+
+
+def rounding_bound(mesh, x):
+    """The static cases' bound on a solve at round-off (cases/fem/_static.py): sqrt(dofs)
+    ROUNDING_TERMS eps lambda_max max|x| / lambda_min of the free dofs' stiffness at x; it
+    bounds the distance of any rounding-level equilibrium from the exact one, so twice it
+    bounds two such solves' gap (3.7e-9 m for the bar at rest: its condition number 2.2e4)."""
+    lam_min, lam_max = free_stiffness_extremes(mesh, x)
+    dofs = 3 * (len(mesh) - len(mesh.pinned))
+    return float(np.sqrt(dofs) * ROUNDING_TERMS * EPS * lam_max * np.abs(x).max() / lam_min)
 
 
 def static_scene(mesh, gravity=G):
@@ -179,6 +190,16 @@ def test_static_patch_test_within_the_cases_bound():
     assert err <= bound
 
 
+def test_static_scene_at_rest_stays_put():
+    """No gravity and every node at its rest position: pybullet's rest forces are rounding
+    (its F = Ds Dm^-1 is I to a few ulps), so the nodes stay within the static solve's rounding
+    bound (3.7e-9 m here); measured 1.4e-13 m."""
+    mesh = bar()
+    obs = solve(ENGINE, static_scene(mesh, gravity=(0.0, 0.0, 0.0)))
+    assert np.abs(obs["x"] - mesh.vertices).max() <= rounding_bound(mesh, mesh.vertices)
+    assert obs["iterations"] < 1000, obs["iterations"]
+
+
 def test_static_stretched_bar_is_refsims_static_solve():
     """Both end faces pinned, the top one moved up 20 %, no gravity: no mass enters, so
     pybullet's equilibrium is refsim's static solve of the scene as stated, to the forces'
@@ -191,7 +212,7 @@ def test_static_stretched_bar_is_refsims_static_solve():
     interior = np.abs(ref["x"] - scene.parts[0].vertices * [1, 1, 1.2]).max()
     gap = np.abs(pb["x"] - ref["x"]).max()
     assert interior > 1e-3  # the free nodes do not follow the homogeneous stretch (necking)
-    assert gap <= 1e-12  # the static solve's rounding, as below; measured ~1e-15 m
+    assert gap <= 2 * rounding_bound(scene.parts[0], ref["x"])  # measured 1e-16 m
 
 
 @pytest.mark.parametrize("youngs", [2e4, pytest.param(2e3, marks=pytest.mark.slow)],
@@ -208,9 +229,7 @@ def test_static_hanging_bar_is_refsims_equilibrium_with_pybullets_masses(youngs)
     lumped = solve(REFSIM, static_scene(mesh))
     motion = np.abs(same["x"] - mesh.positions).max()
     gap, gap_lumped = np.abs(pb["x"] - same["x"]).max(), np.abs(pb["x"] - lumped["x"]).max()
-    # 64 eps x the positions through the stiffness's conditioning (a few 1e3 for this bar):
-    # the static solve's rounding (cases/fem/_static.py); measured 2e-15..6e-15 m
-    assert gap <= 1e-12 * max(1.0, motion)
+    assert gap <= 2 * rounding_bound(mesh, same["x"])  # measured 2e-16 and 6e-16 m
     assert gap_lumped > 0.01 * motion  # measured 11 % and 4.7 % of the motion: no round-off
 
 
