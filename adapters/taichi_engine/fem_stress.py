@@ -9,7 +9,7 @@ for one element's constant F (d x d, d = F.n = 2 or 3).
   tr(R^T F) (refsim's rotation-variant SVD: a rotation even for an inverted element);
 - neo_hookean (Smith et al. 2018's stable energy, refsim's reparametrised mu, lam, alpha):
   P = mu (1 - 1/(I_C + 1)) F + lam (J - alpha) cof F;
-- plane strain: the 3D law on diag(F, 1), its in-plane block (`plane_strain`).
+- plane strain: the 3D law on diag(F, 1), its in-plane block (`law_functions`).
 
 The rotation R (`rotation`), ti.polar_decompose not used (taichi 1.7.4, measured):
 - 2D in closed form: (c, s) = (F00 + F11, F10 - F01) / r, r = |(F00 + F11, F10 - F01)|, and
@@ -20,11 +20,13 @@ The rotation R (`rotation`), ti.polar_decompose not used (taichi 1.7.4, measured
   ti.polar_decompose (U V^T of taichi's Sifakis-McAdams 3x3 SVD, a fixed 8 sweeps in f64)
   does return a rotation, also for inverted F, but only within 1.2e-10 of the exact factor
   on F = I + 0.2 N(0, 1) (R S = F to 2e-10; 12 to 40 sweeps give the same 1.2e-10): far
-  above round-off. It also compiles slowly: 0.7-1.6 s for a kernel holding it, and a
-  Newton polish on top of it took an FEM stepper kernel to 7-14 s of JIT (svd3: 0.2 s).
+  above round-off. It also compiles slowly: 0.7-1.6 s for a kernel holding it alone, and
+  with a Newton polish to round-off on top of it a tetrahedral stepper kernel took 7-14 s
+  of JIT, against 2.8 s with svd3 (wall time, on the same loaded machine).
 A rotation is not unique where s_j + s_k = 0 for two singular values (an element flattened
 to a point or a line, or inverted to s_2 = -s_3): tr S I - S is singular there, and so is the
-corotated tangent (refsim's too).
+corotated tangent (refsim's too); an element flattened to a line or a point (two zero
+singular values) makes svd3 divide by zero: NaN forces, a run reported as diverged.
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """
 from .kernel_types import f64, ti
