@@ -8,8 +8,10 @@ node in the arrays, pinned ones included (inverse mass 0: their acceleration is 
 v = 0 every stepper leaves them exactly where they are). Per element e with nodes
 c_0..c_d: Ds = [x_c1 - x_c0, ...] (columns), F = Ds Dm^-1, H = (-V) (P(F) Dm^-T); node c_a
 (a >= 1) gets column a - 1 of H, node c_0 minus their sum (refsim's element_forces), summed
-into the nodes with atomic adds in element order (the time loop is serialized, so each
-node's sum runs in refsim's order: its incidence matrix's row, elements ascending).
+into the nodes with atomic adds in element order (every kernel's outer loop is serialized,
+so each node's sum runs in refsim's order: its incidence matrix's row, elements ascending;
+the masses come out bit-identical, the forces within round-off: numpy's batched matmul and
+LAPACK's det round differently from these expressions).
 Masses m = sum rho V / (d + 1) the same way; a = (f + ext) inv_m with ext = loads + m g and
 inv_m = 1 / m on free nodes (refsim's accel: forces times 1 / m).
 
@@ -203,10 +205,10 @@ def make_kernels(d, law, plane_strain):
                                 value += dP[i, j] * grads[a, j]
                             K[row * d + i, col * d + k] += P.volume[e] * value
 
-    return SimpleNamespace(pack_t=pack_t, vec=vec, mat=mat, cell=cell_type(d), setup=setup, forces=forces,
-                           explicit_euler=explicit_euler, symplectic_euler=symplectic_euler,
-                           velocity_verlet=velocity_verlet, rk4=rk4,
-                           stiffness=stiffness)
+    return SimpleNamespace(pack_t=pack_t, vec=vec, mat=mat, cell=cell_type(d), setup=setup,
+                           forces=forces, explicit_euler=explicit_euler,
+                           symplectic_euler=symplectic_euler, velocity_verlet=velocity_verlet,
+                           rk4=rk4, stiffness=stiffness)
 
 
 def kernels(d: int, law: str, plane_strain: bool):

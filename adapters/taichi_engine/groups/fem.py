@@ -144,7 +144,8 @@ class FemData:
 
     def model(self) -> dict:
         return {"law": self.law["name"], "mu": self.law["mu"], "lam": self.law["lam"],
-                "alpha": self.law["alpha"], "elements": len(self.body.elements.cells), "nodes": self.n,
+                "alpha": self.law["alpha"], "elements": len(self.body.elements.cells),
+                "nodes": self.n,
                 "element": "P1 triangle" if self.d == 2 else "P1 tetrahedron",
                 "plane": (getattr(self.mesh, "plane", None) if self.d == 2 else None),
                 "free_nodes": int(self.free.sum()), "pinned": int(len(self.mesh.pinned)),
