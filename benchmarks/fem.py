@@ -19,6 +19,12 @@ form), unit thickness.
    `solve_static` with the linear law (one step solves it), scikit-fem `asm` + `condense` +
    `solve`. Solutions checked equal to 1e-9 of the largest displacement (the same matrix up
    to 1e-12 relative, conditioning ~1e3 at these sizes).
+3. Explicit force evaluation: symplectic Euler steps of the same mesh, corotated law, free but
+   for one pinned corner, released stretched by 1 %: element updates (elements x steps) per
+   second of the engines' own Sims, refsim (numpy: F, the polar decomposition by SVD, P, the
+   sparse scatter) against taichi's float64 kernels (its time loop inside one kernel), each
+   `Sim.step(k)` after a warm-up (compilation), best of repeats, at 10^4 and 10^5 triangles
+   (with or without --quick). Goal: in-house >= 1/3 of taichi CPU's throughput at 10^5.
 Times: best of repeats after a warm-up; one timing where a call takes over 5 s. numpy and
 scipy on the run's one thread. `--quick`: 10^4 and 10^5 triangles; the full bench adds 10^6.
 `main` returns the figures for the store.
@@ -33,7 +39,7 @@ import numpy as np
 from refsim_benchmarks.inhouse import best_time
 
 E, NU = 1.0, 0.3
-GOALS = {"assembly_ratio": 2.0, "assembly_exponent": 1.1}
+GOALS = {"assembly_ratio": 2.0, "assembly_exponent": 1.1, "force_ratio": 1.0 / 3.0}
 EQUAL_K = 1e-12  # relative: the same exact element integrals summed in another order
 EQUAL_U = 1e-9  # relative: the same matrix to 1e-12 through a solve of conditioning ~1e3
 SIZES = {True: (71, 224), False: (71, 224, 707)}  # cells a side: 1.0e4, 1.0e5, 1.0e6 triangles
@@ -185,10 +191,70 @@ def _figure(name, value, units, engine, description):
             "description": description}
 
 
+def _stepping_scene(n):
+    from refsim.models.fem_meshes import rectangle_triangles
+    from refsim.scene import Material, Scene, TriangleMesh
+    nodes, tris = rectangle_triangles(n, n)
+    mesh = TriangleMesh(nodes, tris, Material(E, NU, 1.0, "corotated"), thickness=1.0,
+                        pinned=[0], positions=nodes * [1.01, 1.0, 1.0])
+    return Scene(parts=(mesh,), gravity=(0.0, 0.0, 0.0))
+
+
+def force_rows(quick, repeats):
+    """[{engine, triangles, element_updates_per_s}] of symplectic Euler steps."""
+    from refsim.registry import get_engine
+    out = []
+    for n in SIZES[True]:
+        scene = _stepping_scene(n)
+        m = len(scene.parts[0].triangles)
+        dt = 0.1 / n  # c = sqrt(E / rho) = 1: a tenth of a cell's crossing, stable
+        steps = max(2, int(2e6 // m))
+        for name in ("refsim", "taichi"):
+            engine = get_engine(name)
+            if not engine.available() or engine.supports(scene, "symplectic_euler"):
+                continue
+            sim = engine.build(scene, dt, "symplectic_euler", "")
+            sim.step(steps)  # warm-up: compilation, caches
+            best = best_time(lambda s=sim, k=steps: s.step(k), repeats)
+            sim.close()
+            out.append({"engine": name, "triangles": m, "element_updates_per_s": m * steps / best})
+    return out
+
+
+def print_forces(table):
+    print("3. Explicit stepping (symplectic Euler, corotated), element updates per second")
+    figures = []
+    for m in sorted({r["triangles"] for r in table}):
+        by = {r["engine"]: r["element_updates_per_s"] for r in table if r["triangles"] == m}
+        line = f"   {m:10d} triangles: refsim {by['refsim']:.3g}/s"
+        figures.append(_figure(f"fem_steps_refsim_{m}", by["refsim"], "elements/s", "refsim",
+                               f"explicit FEM element updates per second, {m} triangles"))
+        if "taichi" not in by:
+            print(line + ", taichi not available (or runs no mesh in this checkout)")
+            continue
+        ratio = by["refsim"] / by["taichi"]
+        print(line + f", taichi {by['taichi']:.3g}/s, in-house/taichi {ratio:.3f}")
+        figures.append(_figure(f"fem_steps_ratio_{m}", ratio, "1", "refsim/taichi",
+                               f"explicit FEM element updates, in-house over taichi, {m}"))
+    if figures and "taichi" in {r["engine"] for r in table}:
+        last = figures[-1]["value"]
+        print(f"   goal: in-house >= {GOALS['force_ratio']:.3g} of taichi at the largest mesh: "
+              f"{last:.3f} -> {'MET' if last >= GOALS['force_ratio'] else 'NOT MET'}")
+    return figures
+
+
 def main(quick: bool = False) -> list[dict]:
     repeats = 1 if quick else 3
     skfem = _skfem()
     print(f"threads: numpy/scipy 1; scikit-fem "
-          f"{skfem.__version__ if skfem else 'not installed'}; times: best of {repeats} "
-          "after a warm-up (one timing past 5 s)")
-    return print_rows(rows(quick, repeats))
+          f"{skfem.__version__ if skfem else 'not installed'}; taichi {_taichi_threads()}; "
+          f"times: best of {repeats} after a warm-up (one timing past 5 s)")
+    return print_rows(rows(quick, repeats)) + print_forces(force_rows(quick, repeats))
+
+
+def _taichi_threads():
+    try:
+        from refsim_adapters.taichi_engine.runtime import effective_config
+        return f"cpu_max_num_threads = {effective_config()['cpu_max_num_threads']}"
+    except ImportError:
+        return "not available"

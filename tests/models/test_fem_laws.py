@@ -105,3 +105,24 @@ def test_forces_are_the_negative_energy_gradient(d, plane, name):
     # l ~ 0.5), round-off eps U / h ~ eps (l / h) |f| = 1e-10 |f|; the bound leaves 1000x
     # and is 10^4 below a 0.1 % error in the forces
     assert np.abs(f + grad).max() <= 1e-7 * np.abs(f).max()
+
+
+def test_corotated_2d_closed_form_polar_is_the_rotation_variant_svd():
+    """2D corotated takes R and the signed singular values in closed form; they are the
+    rotation-variant SVD's (U V^T, s with the last carrying det F's sign), inverted elements
+    included. Bounds: the SVD's backward error, taken as 8 eps |F| per entry (LAPACK's is a
+    small multiple of eps |F|), for s; for R that error times the rotation's condition number
+    2 / (s1 + s2) (a perturbation dF turns R by (dF - dF^T)_10 / tr S, Sifakis & Barbic)."""
+    from refsim.models.fem_laws import Corotated, rotation_variant_svd
+    rng = np.random.default_rng(11)
+    f = np.eye(2) + 0.6 * rng.standard_normal((400, 2, 2))
+    f[:40, :, 0] *= -1.0  # inverted elements (det F < 0)
+    assert (np.linalg.det(f) < 0).sum() >= 40
+    rot, s, vt = Corotated(1.0, 1.0, 2)._polar(f)
+    u, s_svd, vt_svd = rotation_variant_svd(f)
+    scale = np.abs(f).max(axis=(1, 2))
+    assert vt is None
+    error = 8 * 2.2e-16 * scale
+    assert np.all(np.abs(rot - u @ vt_svd).max(axis=(1, 2)) <= error * 2.0 / s_svd.sum(-1))
+    assert np.all(np.abs(s - s_svd).max(-1) <= 8 * 2.2e-16 * scale)
+    assert np.allclose(np.linalg.det(rot), 1.0, rtol=0, atol=4 * 2.2e-16)
