@@ -1,0 +1,225 @@
+"""Plastic set (von Mises, refsim.models.fem_plasticity): one free regular tetrahedron (edge
+a = 1 m, rho = 1 kg/m^3, E = 1000 Pa, nu = 0.3, linear law, ideal plasticity sigma_y = 10 Pa)
+flung apart along x from its rest shape by the node velocities v_a = v0 N (X_a - c), N =
+diag(2, -1, -1) / sqrt(6) (an isochoric stretch along x, unit norm; c the centroid: no
+momentum, no spin), stretches past yield, stops and springs back. Dynamic (the stretch and
+the unloading come from the motion itself, no loads or pins to change over time; the
+in-house engine commits the plastic strain after every step).
+
+Why it has a closed form: in one P1 element with lumped masses rho V / 4 (equal: MuJoCo's
+split too) node a accelerates by -(4 / rho) P grad phi_a, so F = sum_a x_a grad phi_a^T obeys
+F'' = -(4 / rho) P B, B = sum_a grad phi_a grad phi_a^T = (2 / a^2) I for a regular
+tetrahedron (|grad phi_a| = 1 / h, h = a sqrt(2/3), isotropic by symmetry): F'' = -k P,
+k = 8 / (rho a^2). With the linear law, F = I + e N stays on that line (P = sigma stays
+along the deviator N, the volume is kept), and e obeys a one-degree-of-freedom elastic-ideally
+plastic oscillator: e'' = -k 2 mu (e - e_p), |2 mu (e - e_p)| <= s_y = sqrt(2/3) sigma_y (the
+von Mises yield of the deviator), omega^2 = 2 mu k:
+  elastic, until e = e_y = s_y / (2 mu):  e = (v0 / omega) sin(omega t);
+  plastic (e'' = -k s_y, flow):           e = e_y + w (t - t1) - k s_y (t - t1)^2 / 2,
+                                          w = sqrt(v0^2 - omega^2 e_y^2), to t_max = t1 + w / (k s_y);
+  unloading, elastic:                     e = e_p + e_y cos(omega (t - t_max)),
+the permanent set e_p = w^2 / (2 k s_y) = e_max - e_y (the yield rule's closed form with the
+kinetic energy spent in plastic work), reached when the stress first returns to zero, a
+quarter period after t_max: the run's end (past it the stress heads back to -s_y, exactly the
+yield surface, where rounding would decide). Default v0 = sqrt(7) omega e_y: e_p = 3 e_y
+= 0.032 (uniaxial measures: eps_p,xx = 2 e_p / sqrt(6) = 0.026, lateral half of it).
+Observable: the four nodes' positions x = c + (I + e(t) N)(X - c) (m), error the 2-norm over
+the nodes; the column permanent_strain is e at the end read from the nodes.
+Bound: the named method's exact discrete solution of that reduced oscillator (`discrete`:
+each of the in-house engine's steppers written out here for the scalar e from its
+definition, the force -k s(e) with s = 2 mu (e - e_p) clamped to +-s_y by the radial return
+from the committed e_p, committed after each step, as refsim.models.fem_system does; the node
+motion stays on the line F = I + e N for every method, each step being built of forces along
+it) against the closed form, max over the samples, times ||N (X - c)||_2, plus round-off
+(refsim.case.roundoff_tolerance). Steps omega dt = 0.04 and 0.02 (reference), each an
+integer division of the run so the last sample is the closed form's t_end.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from refsim.case import Case, Param, roundoff_tolerance
+from refsim.integrators.spec import spec_name
+from refsim.scene import Material, Plasticity, Scene, TetMesh
+
+from ..particles.stiff_spring import sample_steps
+
+DIRECTION = np.diag([2.0, -1.0, -1.0]) / np.sqrt(6.0)
+Y_SWEEP = (0.04, 0.02)  # omega dt
+Y_REFERENCE = 0.02
+
+
+def regular_tetrahedron(edge):
+    """(4, 3) vertices, positively oriented."""
+    a = float(edge)
+    return np.array([[0.0, 0.0, 0.0], [a, 0.0, 0.0], [a / 2, a * np.sqrt(3) / 2, 0.0],
+                     [a / 2, a * np.sqrt(3) / 6, a * np.sqrt(2.0 / 3.0)]])
+
+
+class PlasticSet(Case):
+    name = "plastic_set"
+    description = ("a regular tetrahedron flung apart past yield (von Mises, ideal): it "
+                   "stops, springs back and keeps the closed-form permanent set e_p = w^2/(2 k s_y)")
+    tags = ("fem", "dynamic", "plasticity", "closed form")
+    observable, units = "x", "m"
+    params = {
+        "youngs_modulus": Param(1000.0, 1e-6, 1e12, "E (Pa)", low_inclusive=False),
+        "poisson_ratio": Param(0.3, -0.99, 0.49, "nu"),
+        "yield_stress": Param(10.0, 0.0, 1e12, "sigma_y (Pa)", low_inclusive=False),
+        "density": Param(1.0, 1e-6, 1e6, "rho (kg/m^3)", low_inclusive=False),
+        "edge": Param(1.0, 1e-3, 1e3, "a (m)", low_inclusive=False),
+        "overdrive": Param(np.sqrt(7.0), 1.0, 10.0, "v0 / (omega e_y): e_p = e_y (r^2 - 1) / 2",
+                           low_inclusive=False),
+    }
+    variants = {"default": {}}
+    quick_variants = ("default",)
+
+    # -- the closed form --------------------------------------------------------------------
+    def constants(self, p) -> dict:
+        mu = p["youngs_modulus"] / (2 * (1 + p["poisson_ratio"]))
+        k = 8.0 / (p["density"] * p["edge"] ** 2)
+        omega = np.sqrt(2 * mu * k)
+        s_y = np.sqrt(2.0 / 3.0) * p["yield_stress"]
+        e_y = s_y / (2 * mu)
+        v0 = p["overdrive"] * omega * e_y
+        w = np.sqrt(v0 * v0 - (omega * e_y) ** 2)
+        t1 = np.arcsin(e_y * omega / v0) / omega
+        t_max = t1 + w / (k * s_y)
+        e_p = w * w / (2 * k * s_y)
+        return {"mu": mu, "k": k, "omega": omega, "s_y": s_y, "e_y": e_y, "v0": v0, "w": w,
+                "t1": t1, "t_max": t_max, "e_p": e_p, "t_end": t_max + np.pi / (2 * omega)}
+
+    def strain(self, p, t) -> np.ndarray:
+        c = self.constants(p)
+        t = np.asarray(t, float)
+        elastic = c["v0"] / c["omega"] * np.sin(c["omega"] * np.minimum(t, c["t1"]))
+        s = t - c["t1"]
+        plastic = c["e_y"] + c["w"] * s - c["k"] * c["s_y"] * s * s / 2
+        unloading = c["e_p"] + c["e_y"] * np.cos(c["omega"] * (t - c["t_max"]))
+        return np.where(t <= c["t1"], elastic, np.where(t <= c["t_max"], plastic, unloading))
+
+    # -- the scene --------------------------------------------------------------------------
+    def _rest(self, p):
+        nodes = regular_tetrahedron(p["edge"])
+        return nodes, nodes.mean(0)
+
+    def scene(self, p):
+        nodes, centre = self._rest(p)
+        v0 = self.constants(p)["v0"]
+        material = Material(p["youngs_modulus"], p["poisson_ratio"], p["density"], "linear",
+                            Plasticity(p["yield_stress"]))
+        mesh = TetMesh(nodes, np.array([[0, 1, 2, 3]]), material,
+                       velocities=v0 * (nodes - centre) @ DIRECTION.T)
+        return Scene(parts=(mesh,), gravity=(0.0, 0.0, 0.0))
+
+    def bodies(self, p):
+        return 4
+
+    def t_end(self, p):
+        return self.constants(p)["t_end"]
+
+    def _dt(self, p, y):
+        """The step nearest y / omega that divides t_end into whole steps."""
+        c = self.constants(p)
+        return c["t_end"] / round(c["t_end"] * c["omega"] / y)
+
+    def dts(self, p):
+        return [self._dt(p, y) for y in Y_SWEEP]
+
+    def reference_dt(self, p):
+        return self._dt(p, Y_REFERENCE)
+
+    def observables(self, p, obs):
+        return {"x": np.asarray(obs["x"], float)}
+
+    def reference(self, p, t):
+        nodes, centre = self._rest(p)
+        e = self.strain(p, np.atleast_1d(t))
+        return {"x": centre + (nodes - centre)[None] + e[:, None, None] *
+                ((nodes - centre) @ DIRECTION.T)[None]}
+
+    def motion_scale(self, p):
+        """The largest displacement's 2-norm over the nodes, e_max ||N (X - c)|| (m)."""
+        nodes, centre = self._rest(p)
+        c = self.constants(p)
+        return float((c["e_p"] + c["e_y"]) * np.linalg.norm((nodes - centre) @ DIRECTION.T))
+
+    def extra_metrics(self, p, obs, observed, reference):
+        nodes, _ = self._rest(p)
+        x = observed["x"][-1]
+        dm, ds = (nodes[1:] - nodes[0]).T, (x[1:] - x[0]).T
+        f = ds @ np.linalg.inv(dm)
+        return {"permanent_strain": float(np.sum((f - np.eye(3)) * DIRECTION)),
+                "permanent_strain_exact": self.constants(p)["e_p"]}
+
+    def discrete(self, p, integrator, dt, steps) -> np.ndarray:
+        """(steps + 1,) e_n of the named method on the reduced oscillator (module docstring);
+        a scalar loop over the run's steps (four nodes: the case's reference, not a hot
+        path)."""
+        c = self.constants(p)
+        k, two_mu, s_y, e_y, omega2 = c["k"], 2 * c["mu"], c["s_y"], c["e_y"], c["omega"] ** 2
+        name, h = spec_name(integrator), float(dt)
+        state = {"e_p": 0.0}
+
+        def accel(e):
+            return -k * float(np.clip(two_mu * (e - state["e_p"]), -s_y, s_y))
+
+        def implicit(e, v):  # e1 = e + h v1, v1 = v + h a(e1): a piecewise-linear root
+            elastic = (e + h * v + h * h * omega2 * state["e_p"]) / (1 + h * h * omega2)
+            if abs(two_mu * (elastic - state["e_p"])) <= s_y:
+                return elastic
+            return e + h * v + h * h * accel(np.sign(elastic - state["e_p"]) * np.inf)
+
+        e, v, out = 0.0, c["v0"], [0.0]
+        a = accel(e)
+        for _ in range(int(steps)):
+            if name == "explicit_euler":
+                e, v = e + h * v, v + h * a
+            elif name == "symplectic_euler":
+                v = v + h * a
+                e = e + h * v
+            elif name == "velocity_verlet":
+                half = v + h / 2 * a
+                e = e + h * half
+                v = half + h / 2 * accel(e)
+            elif name == "rk4":
+                k1x, k1v = v, a
+                k2x, k2v = v + h / 2 * k1v, accel(e + h / 2 * k1x)
+                k3x, k3v = v + h / 2 * k2v, accel(e + h / 2 * k2x)
+                k4x, k4v = v + h * k3v, accel(e + h * k3x)
+                e, v = (e + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
+                        v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
+            elif name == "implicit_euler":
+                e1 = implicit(e, v)
+                e, v = e1, (e1 - e) / h
+            elif name == "baraff_witkin":  # one linearised step, the elastic tangent
+                v = v + h * (a - h * omega2 * v) / (1 + h * h * omega2)
+                e = e + h * v
+            else:
+                raise ValueError(f"plastic_set has no discrete solution for {integrator!r}")
+            if two_mu * abs(e - state["e_p"]) > s_y:  # commit the return
+                state["e_p"] = e - np.sign(e - state["e_p"]) * e_y
+            a = accel(e)
+            out.append(e)
+        return np.array(out)
+
+    def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        """The named method's exact discrete solution against the closed form, plus
+        round-off (module docstring)."""
+        c = self.constants(p)
+        steps = int(round(c["t_end"] / dt))
+        nodes, centre = self._rest(p)
+        size = float(np.linalg.norm((nodes - centre) @ DIRECTION.T))
+        samples = sample_steps(steps, int(round(self.sample_dt(p) / dt)))
+        e = self.discrete(p, integrator, dt, steps)[samples]
+        deviation = size * float(np.max(np.abs(e - self.strain(p, samples * dt))))
+        roundoff, reason = roundoff_tolerance(steps, 0.5 * np.sqrt(12) * (
+            float(np.abs(nodes).max()) + self.motion_scale(p)))
+        return deviation + roundoff, (
+            f"{integrator}'s exact discrete solution of the reduced elastic-plastic "
+            f"oscillator (y = omega dt = {c['omega'] * dt:.3g}) errs {deviation:.3g} m from "
+            f"the closed form at the {len(samples)} samples (max, times ||N (X - c)||)"
+            + reason)
+
+
+CASE = PlasticSet()
