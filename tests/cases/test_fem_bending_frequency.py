@@ -65,30 +65,31 @@ def test_converged_ratios_to_euler_bernoulli_and_the_beam_correction():
                                         "implicit_euler"])
 def test_tip_within_its_bound_and_the_period_measured(integrator):
     """The measured period equals the mesh's 2 pi / omega_h to the method's own phase error
-    (Verlet/symplectic Euler 4.7e-6, RK4 3e-9, implicit Euler 3.8e-5 relative at omega_h dt
-    = 0.011): within 1e-4."""
+    (Verlet/symplectic Euler 1.9e-5, RK4 9e-8, implicit Euler 1.5e-4 relative at omega_h dt
+    = 0.021): within 3e-4."""
     p = CASE.variant_params("n2")
     row = run_job(Job("bending_frequency", "n2", "refsim", "", integrator,
                       CASE.reference_dt(p)), repeats=0)
     assert row["status"] == "ok" and row["consistency"] == "consistent", row["reason"]
-    assert row["period"] == pytest.approx(row["period_mesh"], rel=1e-4)
+    assert row["period"] == pytest.approx(row["period_mesh"], rel=3e-4)
     assert row["omega_h_ratio_eb"] == pytest.approx(STUDY.get(4, {}).get(2, 1.2711558591),
                                                     rel=1e-9)  # P1 locking: 27 % stiff
 
 
 def test_explicit_euler_diverges_on_the_stiffest_mode():
-    """(1 + y_max^2)^(n/2) at y_max = 0.8 over 590 steps: round-off in the stiffest mode
-    grows by 1e70; the run stops as diverged (the contract's by-design list takes it)."""
+    """(1 + y_max^2)^(n/2) at y_max = 1.6 over 295 steps: round-off in the stiffest mode
+    grows by 1e80; the run stops as diverged (the contract's by-design list should take it)."""
     p = CASE.variant_params("n2")
     row = run_job(Job("bending_frequency", "n2", "refsim", "", "explicit_euler",
                       CASE.reference_dt(p)), repeats=0)
     assert row["status"] == "diverged"
 
 
-@pytest.mark.parametrize("integrator, margin", [("velocity_verlet", 50.0), ("rk4", 100.0)])
+@pytest.mark.parametrize("integrator, margin", [("velocity_verlet", 10.0), ("rk4", 100.0)])
 def test_a_stiffness_0_1_percent_off_fails_the_bound(integrator, margin):
-    """omega_h x sqrt(1.001) (or 0.999): a phase of 3e-3 rad over the period, 87x (Verlet)
-    and 240x (RK4, its bound mostly round-off) past the bound."""
+    """omega_h x sqrt(1.001) (or 0.999): a phase of 3e-3 rad over the period, 22-24x (Verlet)
+    and 180x (RK4, its bound mostly round-off) past the bound; symplectic Euler's own error
+    hides it (0.92-1.22x), not asserted."""
     p = CASE.variant_params("n2")
     dt = CASE.reference_dt(p)
     bound = CASE.tolerance(p, integrator, 2, dt)[0]

@@ -56,20 +56,20 @@ def test_the_spurious_force_is_the_closed_form():
 
 def test_the_bound_catches_a_stiffness_0_1_percent_off():
     """An engine whose E is 0.1 % high (or low) vibrates 0.05 % faster (slower): its exact
-    discrete solution leaves the true E's bound by 18-20x (velocity Verlet) and 7.5e4 x (RK4)
-    at the reference dt. The first-order methods' own errors (explicit and implicit Euler
+    discrete solution leaves the true E's bound by 3.9-5.6x (velocity Verlet) and 4.7e3 x
+    (RK4) at the reference dt. The first-order methods' own errors (explicit and implicit Euler
     ~1e-2 m, symplectic Euler 2e-3 m) hide it: 0.94-1.23 x their bounds (one direction each
     only), not asserted."""
     p = CASE.variant_params("linear")
     dt = CASE.reference_dt(p)
     nodes, _, k, m = linear_system(*CASE._key(p))
     steps = int(round(CASE.t_end(p) / dt))
-    samples = np.unique(np.append(np.arange(0, steps, int(round(CASE.sample_dt(p) / dt))),
-                                  steps))
+    stride = max(1, int(round(CASE.sample_dt(p) / dt)))
+    samples = np.unique(np.append(np.arange(0, steps, stride), steps))
     u0 = (CASE.rotated(p) - nodes)[:, :2].reshape(-1)
     v0 = np.tile(DRIFT[:2], len(nodes))
     exact = (CASE.exact_linear(p, samples * dt) - nodes)[..., :2].reshape(len(samples), -1)
-    for integrator, margin in (("velocity_verlet", 10.0), ("rk4", 1e4)):
+    for integrator, margin in (("velocity_verlet", 3.0), ("rk4", 1e3)):
         bound = CASE.tolerance(p, integrator, 2, dt)[0]
         for factor in (1.001, 0.999):
             u, _ = discrete_solution(integrator, -factor * k / m[:, None], None, u0, v0, dt,
