@@ -16,10 +16,14 @@ it settles. Why this works and why in stages (fem_softbody.py has the step):
 - a large h hits the velocity clamp |v| <= diagonal / h while the forces are large (h = 0.3 s
   from the start crawled at 3e-3 m per step there), so every h is capped at the clamp-safe
   step sqrt(diagonal / (CLAMP_MARGIN max|a|)), a the accelerations at the stage's start.
-- far from the rest shape (large rotations, large stretch) K_d no longer bounds the tangent
-  stiffness and b = h can oscillate (a 1 m bar sagging 0.28 m under gravity did at h = 1.6 s):
-  a stage whose moves stop halving before they settle restarts from its start with R x RAMP
-  (x += K_d^-1 f / R: under-relaxed), and R stays.
+- a stage whose moves stop halving before they settle (or blow up) restarts from its start:
+  first with R = RAMP, then with h / RAMP and R = 1, h capped there from then on. Far from
+  the rest shape (large rotations) K_d no longer bounds the tangent stiffness and b = h can
+  oscillate (a 1 m bar sagging 0.28 m under gravity did at h = 1.6 s): under-relaxation
+  x += K_d^-1 f / R settles it. On finer meshes the damping solve (M + h b K_d) dv = r needs
+  more than its 300 iterations once h b w_max^2 is large, the stiff modes go undamped and the
+  explicit step blows up (a 1152-tetrahedron bar at h = b = 0.97 s; each step then costs
+  ~30 us per tetrahedron): a smaller h settles it, and the floor stays higher.
 A stage ends once its largest node move per step has not halved in STALL_HALVINGS x the steps
 the slowest linear mode needs to halve (`halving_steps`), with the move below h x 1e-8 m/s.
 The solve ends when the floor is within ROUND_OFF x max|x|, when the clamp keeps h from growing
@@ -53,11 +57,14 @@ STALL_HALVINGS = 8.0  # a stage ends (or restarts) when its move has not halved 
 #                       times softer than the damping's rest stiffness
 STALL_MIN = 20
 CLAMP_CHECK = 20  # steps between checks whether a clamp-held stage may restart with a larger h
-MAX_STEPS = 20_000  # pybullet steps per solve, all stages together: then a failure
+MAX_TET_STEPS = 2e6  # pybullet steps x tetrahedra per solve, all stages together (then a
+#                      failure): 16,000 steps of the 120-tetrahedron bar; a damped step costs
+#                      up to ~30 us per tetrahedron (300 conjugate-residual iterations)
 ROUND_OFF = 64 * np.finfo(float).eps  # x max|x|: a floor this small is below the forces'
 #                                       rounding through the stiffness (64 eps lambda_max |x|
 #                                       / lambda_min, cases/fem/_static.py)
-DENSE_DOFS = 3000  # free dofs up to which the lowest eigenvalue is found densely
+DENSE_DOFS = 300  # free dofs up to which the lowest eigenvalue is found densely (3000:
+#                   18.7 s dense, 0.5 s by shift-invert Lanczos)
 
 
 DESCRIPTION = (
@@ -67,11 +74,12 @@ DESCRIPTION = (
     f"stage, capped at the clamp-safe step sqrt(diagonal / ({CLAMP_MARGIN:g} max|a|)); a stage "
     f"ends when its largest node move per step has not halved in {STALL_HALVINGS:g} x the "
     "steps the slowest linear mode needs to halve, with the move below h x 1e-8 m/s (the "
-    f"damping solve's tolerance), else it restarts from its start with R x {RAMP:g}; the solve "
+    f"damping solve's tolerance), else it restarts from its start with R = {RAMP:g}, then "
+    f"with h / {RAMP:g} and R = 1 (h capped there); the solve "
     "ends when the floor 1e-8 m/s / (h w_min^2) is within "
     f"{ROUND_OFF:.3g} x max|x|, when the clamp stops h from growing, when a stage's smallest "
-    f"move exceeds the smallest so far, after {MAX_STAGES} stages, or (failure) {MAX_STEPS} "
-    "steps "
+    f"move exceeds the smallest so far, after {MAX_STAGES} stages, or (failure) "
+    f"{MAX_TET_STEPS:g} steps x tetrahedra "
     "without a settled stage; the positions kept: those of the smallest move of all settled "
     "stages (adapters/pybullet_engine/fem_relax.py)")
 
@@ -167,17 +175,22 @@ class Relaxation:
         """(positions, pybullet steps, stage log, the error floor of the stage kept)."""
         x, total, log, floor = np.array(x, float), 0, [], np.inf
         target, ratio, settled_h, kept = C_SLOWEST / self.w_min, 1.0, 0.0, (np.inf, None)
+        cap, budget = np.inf, int(MAX_TET_STEPS / len(self.mesh.tetrahedra))
         while len(log) < MAX_STAGES:
+            target = min(target, cap)
             h = min(target, self.clamp_safe_step(x))
             try:
-                x_new, move, steps, settled = self.stage(x, h, ratio, MAX_STEPS - total, target)
-            except Unsettled as exc:  # from the stage's start again, damped RAMP times more
+                x_new, move, steps, settled = self.stage(x, h, ratio, budget - total, target)
+            except Unsettled as exc:  # from the stage's start again, as below
                 total += exc.steps
                 log.append({"h_s": h, "damping_s": ratio * h, "steps": exc.steps,
                             "unsettled_move_m": exc.move})
-                if total >= MAX_STEPS:
+                if total >= budget:
                     break
-                ratio, target = ratio * RAMP, h
+                if ratio == 1.0:  # under-relaxed: b = RAMP h (large rotations)
+                    ratio, target = RAMP, h
+                else:  # a smaller step, and never this one again (the damping solve's
+                    ratio, target, cap = 1.0, h / RAMP, h / RAMP  # 300 iterations fall short)
                 continue
             x, total = x_new, total + steps
             entry = {"h_s": h, "damping_s": ratio * h, "steps": steps, "move_m": move}
@@ -188,8 +201,8 @@ class Relaxation:
             if move > kept[0]:  # a larger h only amplified the forces' rounding: stop
                 break
             kept, floor = (move, x), log[-1]["floor_m"]
-            if floor <= ROUND_OFF * np.abs(x).max() or h <= settled_h:
-                break  # at round-off, or the clamp keeps h from growing
+            if floor <= ROUND_OFF * np.abs(x).max() or h <= settled_h or cap <= h:
+                break  # at round-off, or the clamp or the cap keeps h from growing
             settled_h, target = h, h * RAMP
         if kept[1] is None:
             raise EngineFailure(f"pybullet fem steady: no stage settled in {total} steps: {log}")
