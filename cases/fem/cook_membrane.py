@@ -6,9 +6,10 @@ E = 1 Pa, nu = 1/3, thickness 1, PLANE STRESS (Cook's, and the benchmark's in Be
 square's n x n right-triangle grid mapped bilinearly onto the panel (nested under halving).
 
 No closed form exists: refsim's own converged value of the vertical displacement of the
-loaded edge's top corner C = (48, 60) comes from the P1 solution on n = 16 .. 512 (the case's constant-strain triangles, cases/fem/_linear.py, the same numbers as the
-in-house static solve: tests/cases/test_fem_cook_membrane.py recomputes n <= 128) by
-Richardson extrapolation (`converged`). Its observed order falls (1.51, 1.41, 1.29 over the
+loaded edge's top corner C = (48, 60) comes from the P1 solution on n = 16 .. 512 (the
+case's constant-strain triangles, cases/fem/_linear.py, the same numbers as the in-house
+static solve: tests/cases/test_fem_cook_membrane.py recomputes n <= 128) by Richardson
+extrapolation (`converged`). Its observed order falls (1.51, 1.41, 1.29 over the
 last halvings): the uniform shear on x = 48 meets the traction-free top edge at C, where no
 bounded stress satisfies both (sigma_xy = 1/16 on the loaded edge, zero traction on the top
 edge), so the stress is singular at C itself and the point converges towards first order.
@@ -18,8 +19,9 @@ v_C = 25.190 +- 0.011 m. scikit-fem 12.0.2's P2 triangles on the same meshes (n 
 25.016, 25.110, 25.152, 25.171, order -> 1.1, extrapolated 25.190) agree.
 Which point the literature means: the often-quoted 23.96 (23.9 in Bergan & Felippa) is, on
 these numbers, the vertical displacement of the loaded edge's MIDPOINT (48, 52) (P1: 23.971
-+- 0.007 by the same rule, 23.967 at its observed order 1.79; P2 23.968), not of C (25.19); verification pages that call it "the top
-corner" report coarse quadrilateral values near their quoted number. Both are reported:
++- 0.007 by the same rule, 23.967 at its observed order 1.79; P2 23.968), not of C (25.19);
+verification pages that call it "the top corner" report coarse quadrilateral values near
+their quoted number. Both are reported:
 corner_v is compared, midpoint_v is an extra column.
 
 P1 locking: the constant-strain triangles are too stiff in this bending-dominated panel

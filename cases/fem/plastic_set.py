@@ -16,7 +16,8 @@ plastic oscillator: e'' = -k 2 mu (e - e_p), |2 mu (e - e_p)| <= s_y = sqrt(2/3)
 von Mises yield of the deviator), omega^2 = 2 mu k:
   elastic, until e = e_y = s_y / (2 mu):  e = (v0 / omega) sin(omega t);
   plastic (e'' = -k s_y, flow):           e = e_y + w (t - t1) - k s_y (t - t1)^2 / 2,
-                                          w = sqrt(v0^2 - omega^2 e_y^2), to t_max = t1 + w / (k s_y);
+                                          w = sqrt(v0^2 - omega^2 e_y^2),
+                                          to t_max = t1 + w / (k s_y);
   unloading, elastic:                     e = e_p + e_y cos(omega (t - t_max)),
 the permanent set e_p = w^2 / (2 k s_y) = e_max - e_y (the yield rule's closed form with the
 kinetic energy spent in plastic work), reached when the stress first returns to zero, a
@@ -31,9 +32,9 @@ definition, the force -k s(e) with s = 2 mu (e - e_p) clamped to +-s_y by the ra
 from the committed e_p, committed after each step, as refsim.models.fem_system does; the node
 motion stays on the line F = I + e N for every method, each step being built of forces along
 it) against the closed form, max over the samples, times ||N (X - c)||_2, plus round-off
-(refsim.case.roundoff_tolerance). Steps omega dt = 0.02 (reference), and 0.04 beside it in the variant sweep (the default run's
-cost: the sweep by name), each an
-integer division of the run so the last sample is the closed form's t_end.
+(refsim.case.roundoff_tolerance). Steps omega dt = 0.02 (reference), and 0.04 beside it in
+the variant sweep (the default run's cost: the sweep by name), each an integer division of
+the run so the last sample is the closed form's t_end.
 """
 from __future__ import annotations
 
@@ -60,7 +61,8 @@ def regular_tetrahedron(edge):
 class PlasticSet(Case):
     name = "plastic_set"
     description = ("a regular tetrahedron flung apart past yield (von Mises, ideal): it "
-                   "stops, springs back and keeps the closed-form permanent set e_p = w^2/(2 k s_y)")
+                   "stops, springs back and keeps the closed-form permanent set "
+                   "e_p = w^2/(2 k s_y)")
     tags = ("fem", "dynamic", "plasticity", "closed form")
     observable, units = "x", "m"
     params = {

@@ -2,10 +2,11 @@
 (thickness 0.1 m, E = 1000 Pa, nu = 0.3, rho = 1 kg/m^3, `cells` x cells/2 right-triangle
 cells) starts in its rest shape rotated rigidly by theta about its centre, x0 = c + R (X - c),
 drifting at a uniform velocity v0 = (0.02, 0.01) m/s (a translation: exact for every law and
-stepper, so that even the laws that find no force move); no pins, loads or gravity. A dynamic case, stepped (why not static: a free
-body's stiffness is singular, and pinning nodes at R X would turn the rotation into an imposed
-boundary field; from rest, the force a law finds in a rotated body shows directly as motion,
-one scene for every law, with exact references for every stepper).
+stepper, so that even the laws that find no force move); no pins, loads or gravity. A
+dynamic case, stepped (why not static: a free body's stiffness is singular, and pinning
+nodes at R X would turn the rotation into an imposed boundary field; released, the force a
+law finds in a rotated body shows directly as motion, one scene for every law, with exact
+references for every stepper).
 
 - green (StVK), corotated, neo_hookean are rotation invariant: at F = R their stress is zero,
   every node's force is round-off and the exact motion is "stays put": x(t) = x0 + v0 t.
@@ -16,11 +17,12 @@ one scene for every law, with exact references for every stepper).
   edges at a (outward unit normals n, lengths l; interior nodes get zero), so the body starts
   with the acceleration a0 = f / m (lumped m = rho t A / 3 per corner): x = x0 + a0 t^2 / 2 +
   O(t^3) (plus v0 t). Its forces are affine, f = -K (x - X), so the whole motion is the
-  linear system x'' = -M^-1 K (x - X), solved exactly by its modes (K, M written out in cases/fem/_linear.py,
-  independent of refsim.models): a vibration about the contracted body it never leaves.
+  linear system x'' = -M^-1 K (x - X), solved exactly by its modes (K, M written out in
+  cases/fem/_linear.py, independent of refsim.models): a vibration about the contracted
+  body it never leaves.
 Run: half the lowest elastic period (pi / omega_1: the spurious vibration's first extreme);
-steps y = omega_max dt = 0.1 (reference; omega_max the mesh's highest mode), and 0.2 beside it in
-the variant linear_sweep (the default run's cost: the dt sweep by name).
+steps y = omega_max dt = 0.1 (reference; omega_max the mesh's highest mode), and 0.2 beside
+it in the variant linear_sweep (the default run's cost: the dt sweep by name).
 Observable: every node's position x (m); error the 2-norm over the nodes.
 Bounds: linear: the named method's exact discrete solution on the same linear system
 (refsim.expected) against the exact modal solution, max over the samples, plus round-off;
@@ -205,7 +207,8 @@ class RigidRotation(Case):
         every law (the invariant ones do not move)."""
         nodes = linear_system(*self._key(p))[0]
         centre = np.array([WIDTH / 2, HEIGHT / 2, 0.0])
-        return float((1.0 - np.cos(np.radians(p["theta_deg"]))) * np.linalg.norm(nodes - centre))
+        spurious = 1.0 - np.cos(np.radians(p["theta_deg"]))
+        return float(spurious * np.linalg.norm(nodes - centre))
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         nodes, _, k, m = linear_system(*self._key(p))
@@ -233,7 +236,8 @@ class RigidRotation(Case):
         exact = (self.exact_linear(p, k_steps * dt) - nodes)[..., :2].reshape(len(k_steps), -1)
         deviation = float(np.max(np.linalg.norm(u - exact, axis=1)))
         return deviation + roundoff, (
-            f"{integrator}'s exact discrete solution of x'' = -M^-1 K (x - X) (refsim.expected; "
+            f"{integrator}'s exact discrete solution of x'' = -M^-1 K (x - X) "
+            f"(refsim.expected; "
             f"y = omega_max dt = {self.omegas(p)[1] * dt:.3g}) errs {deviation:.3g} m from the "
             f"modal solution at the {len(k_steps)} samples (max)" + reason)
 
