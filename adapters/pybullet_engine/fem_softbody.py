@@ -17,7 +17,8 @@ measured here (tests/engines/pybullet/test_pybullet_fem.py):
 - damping: NeoHookeanDamping b (s) adds the viscous stress b (mu (dF + dF^T) + lam tr(dF) I),
   dF = (velocity differences) Dm^-1, i.e. stiffness-proportional (Rayleigh beta = b) damping
   with the linear-elastic stiffness of (mu, lam) at the rest shape. It is solved implicitly,
-  (M + h D) dv = -h D v*, by conjugate residual with a diagonal preconditioner, stopping at an
+  (M + h D) dv = -h D v*, by conjugate residual preconditioned by the node masses alone (the
+  Neo-Hookean force adds no damping diagonal: KKTPreconditioner), stopping at an
   absolute 1e-8 (m/s, the preconditioned residual's norm over all nodes) or 300 iterations: a
   velocity change below 1e-8 m/s is not applied at all (the solve returns at once).
 - step (setImplicit(false), the deformable world's default): v* = v + h (gravity + elastic

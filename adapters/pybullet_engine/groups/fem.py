@@ -174,6 +174,8 @@ class DynamicSim(_Client, Sim):
                 "btDeformableBodySolver, setImplicit(false), no damping: v += h (gravity + "
                 "Neo-Hookean force at x_n) / m; x += h v")),
             **softbody_settings(self.mesh), "NeoHookeanDamping_s": 0.0,
+            "damping_solve": "none: with NeoHookeanDamping 0 its right-hand side is 0 and the "
+                             "conjugate-residual solve returns at once",
             "fixedTimeStep": prm["fixedTimeStep"], "numSubSteps": prm["numSubSteps"],
             "gravity": [prm[f"gravityAcceleration{c}"] for c in "XYZ"],
             "observed_v": "(x_n - x_{n-1}) / h: pybullet 3.2.7's Python API gives no node "
