@@ -44,6 +44,7 @@ import scipy.linalg
 
 from refsim.case import EPS, Case, Param, roundoff_tolerance
 from refsim.expected import discrete_solution
+from refsim.integrators.spec import spec_name
 from refsim.models.fem_meshes import rectangle_triangles
 from refsim.scene import Material, Scene, TriangleMesh
 
@@ -222,7 +223,7 @@ class BendingFrequency(Case):
         forced = SAFETY * accel * (steps * dt) ** 2 / 2.0
         state, state_reason = roundoff_tolerance(steps, 0.5 * np.sqrt(3 * len(nodes)) * size)
         growth = 1.0
-        if integrator.split(":")[0] == "explicit_euler":
+        if spec_name(integrator) == "explicit_euler":
             growth = (1.0 + (omega_max * dt) ** 2) ** (steps / 2.0)
         k_steps = sample_steps(steps, int(round(self.sample_dt(p) / dt)))
         q, _ = discrete_solution(integrator, -omega * omega, None, 1.0, 0.0, dt, k_steps)

@@ -43,6 +43,7 @@ import numpy as np
 
 from refsim.case import EPS, Case, Param, roundoff_tolerance
 from refsim.expected import discrete_solution
+from refsim.integrators.spec import spec_name
 from refsim.models.fem_meshes import rectangle_triangles
 from refsim.scene import Material, Scene, TriangleMesh
 from refsim.scene.meshes import STRAIN_MEASURES
@@ -220,7 +221,7 @@ class RigidRotation(Case):
         forced = SAFETY * accel * (steps * dt) ** 2 / 2.0
         state, state_reason = roundoff_tolerance(steps, 0.5 * np.sqrt(x0.size) * size)
         growth = 1.0
-        if integrator.split(":")[0] == "explicit_euler":
+        if spec_name(integrator) == "explicit_euler":
             growth = (1.0 + (self.omegas(p)[1] * dt) ** 2) ** (steps / 2.0)
         roundoff = growth * (forced + state)
         reason = (f"; round-off: forces rounded to {ROUNDING_TERMS} eps lambda_max "
