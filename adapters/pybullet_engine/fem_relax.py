@@ -17,7 +17,7 @@ it settles. Why this works and why in stages (fem_softbody.py has the step):
   from the start crawled at 3e-3 m per step there), so every h is capped at the clamp-safe
   step sqrt(diagonal / (CLAMP_MARGIN max|a|)), a the accelerations at the stage's start.
 - a stage whose moves stop halving before they settle (or blow up) restarts from its start:
-  first with R = RAMP, then with h / RAMP and R = 1, h capped there from then on. Far from
+  first with R = RETRY, then with h / RETRY and R = 1, h capped there from then on. Far from
   the rest shape (large rotations) K_d no longer bounds the tangent stiffness and b = h can
   oscillate (a 1 m bar sagging 0.28 m under gravity did at h = 1.6 s): under-relaxation
   x += K_d^-1 f / R settles it. On finer meshes the damping solve (M + h b K_d) dv = r needs
@@ -48,7 +48,8 @@ from refsim.models.fem_model import ElasticBody
 from .fem_softbody import CR_TOLERANCE, load_mesh, node_masses, node_positions
 
 C_SLOWEST = 3.0  # h w_min of the first stage: the slowest mode contracts by 1/sqrt(10) a step
-RAMP = 10.0  # h and b grow tenfold from stage to stage
+RAMP = 100.0  # h and b grow a hundredfold from stage to stage (tenfold: 1.5-2x the stages)
+RETRY = 10.0  # a stage that does not settle restarts with b = RETRY h, then with h / RETRY
 MAX_STAGES = 14  # stages (restarts included) per solve
 CLAMP_MARGIN = 4.0  # h^2 max|a| <= diagonal / CLAMP_MARGIN: clear of the velocity clamp
 STALL_HALVINGS = 8.0  # a stage ends (or restarts) when its move has not halved in this many
@@ -74,8 +75,8 @@ DESCRIPTION = (
     f"stage, capped at the clamp-safe step sqrt(diagonal / ({CLAMP_MARGIN:g} max|a|)); a stage "
     f"ends when its largest node move per step has not halved in {STALL_HALVINGS:g} x the "
     "steps the slowest linear mode needs to halve, with the move below h x 1e-8 m/s (the "
-    f"damping solve's tolerance), else it restarts from its start with R = {RAMP:g}, then "
-    f"with h / {RAMP:g} and R = 1 (h capped there); the solve "
+    f"damping solve's tolerance), else it restarts from its start with R = {RETRY:g}, then "
+    f"with h / {RETRY:g} and R = 1 (h capped there); the solve "
     "ends when the floor 1e-8 m/s / (h w_min^2) is within "
     f"{ROUND_OFF:.3g} x max|x|, when the clamp stops h from growing, when a stage's smallest "
     f"move exceeds the smallest so far, after {MAX_STAGES} stages, or (failure) "
@@ -187,10 +188,10 @@ class Relaxation:
                             "unsettled_move_m": exc.move})
                 if total >= budget:
                     break
-                if ratio == 1.0:  # under-relaxed: b = RAMP h (large rotations)
-                    ratio, target = RAMP, h
+                if ratio == 1.0:  # under-relaxed: b = RETRY h (large rotations)
+                    ratio, target = RETRY, h
                 else:  # a smaller step, and never this one again (the damping solve's
-                    ratio, target, cap = 1.0, h / RAMP, h / RAMP  # 300 iterations fall short)
+                    ratio, target, cap = 1.0, h / RETRY, h / RETRY  # 300 iterations fall short)
                 continue
             x, total = x_new, total + steps
             entry = {"h_s": h, "damping_s": ratio * h, "steps": steps, "move_m": move}
