@@ -80,7 +80,8 @@ def test_the_bound_catches_a_stiffness_0_1_percent_off():
 
 def test_a_law_that_is_not_rotation_invariant_fails_the_invariant_bound():
     """The Cauchy law's motion (the in-house RK4 run) against the invariant laws' reference
-    (stays put) and bound: 1e7 x past it. The plate has exactly three rigid modes."""
+    (stays put) and bound: measured 0.30 m, 3e9 x the bound; asserted 1e7 x. The plate has
+    exactly three rigid modes."""
     p = CASE.variant_params("linear")
     dt = CASE.reference_dt(p)
     sim = get_engine("refsim").build(CASE.scene(p), dt, "rk4", "")
