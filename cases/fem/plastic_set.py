@@ -24,6 +24,12 @@ kinetic energy spent in plastic work), reached when the stress first returns to 
 quarter period after t_max: the run's end (past it the stress heads back to -s_y, exactly the
 yield surface, where rounding would decide). Default v0 = sqrt(7) omega e_y: e_p = 3 e_y
 = 0.032 (uniaxial measures: eps_p,xx = 2 e_p / sqrt(6) = 0.026, lateral half of it).
+Variant hardening (H = 200 Pa, linear isotropic: the yield radius s_y + (2 H / 3) e_p in
+these units): while flowing e_p = 2 mu (e - e_y) / (2 mu + 2 H / 3) and s = s_y + h' (e - e_y),
+h' = 2 mu (2 H / 3) / (2 mu + 2 H / 3), so the plastic phase is a slower oscillation,
+e = e_y - (s_y / h')(1 - cos omega_p tau) + (w / omega_p) sin omega_p tau, omega_p^2 = k h',
+to its turning point tan(omega_p tau_max) = w h' / (s_y omega_p); e_p = 2 mu (e_max - e_y) /
+(2 mu + 2 H / 3) (0.0229), and the unloading cosine's amplitude is e_max - e_p.
 Observable: the four nodes' positions x = c + (I + e(t) N)(X - c) (m), error the 2-norm over
 the nodes; the column permanent_strain is e at the end read from the nodes.
 Bound: the named method's exact discrete solution of that reduced oscillator (`discrete`:
@@ -70,6 +76,7 @@ class PlasticSet(Case):
         "youngs_modulus": Param(1000.0, 1e-6, 1e12, "E (Pa)", low_inclusive=False),
         "poisson_ratio": Param(0.3, -0.99, 0.49, "nu"),
         "yield_stress": Param(10.0, 0.0, 1e12, "sigma_y (Pa)", low_inclusive=False),
+        "hardening": Param(0.0, 0.0, 1e12, "H (Pa), linear isotropic hardening (0: ideal)"),
         "density": Param(1.0, 1e-6, 1e6, "rho (kg/m^3)", low_inclusive=False),
         "edge": Param(1.0, 1e-3, 1e3, "a (m)", low_inclusive=False),
         "overdrive": Param(np.sqrt(7.0), 1.0, 10.0, "v0 / (omega e_y): e_p = e_y (r^2 - 1) / 2",
@@ -77,7 +84,7 @@ class PlasticSet(Case):
         "dt_sweep": Param("reference", choices=("reference", "full"),
                           doc="the reference dt alone (the default run's cost) or the sweep"),
     }
-    variants = {"default": {}, "sweep": {"dt_sweep": "full"}}
+    variants = {"default": {}, "sweep": {"dt_sweep": "full"}, "hardening": {"hardening": 200.0}}
     default_variants = ("default",)
     quick_variants = ("default",)
 
@@ -91,18 +98,34 @@ class PlasticSet(Case):
         v0 = p["overdrive"] * omega * e_y
         w = np.sqrt(v0 * v0 - (omega * e_y) ** 2)
         t1 = np.arcsin(e_y * omega / v0) / omega
-        t_max = t1 + w / (k * s_y)
-        e_p = w * w / (2 * k * s_y)
+        two_h = 2.0 * p["hardening"] / 3.0
+        slope = 2 * mu * two_h / (2 * mu + two_h)  # h': ds/de while flowing
+        if slope == 0.0:
+            span = w / (k * s_y)
+            e_max = e_y + w * w / (2 * k * s_y)
+        else:
+            omega_p = np.sqrt(k * slope)
+            span = np.arctan2(w * slope, s_y * omega_p) / omega_p
+            e_max = e_y - s_y / slope * (1 - np.cos(omega_p * span)) + w / omega_p * np.sin(
+                omega_p * span)
+        e_p = 2 * mu * (e_max - e_y) / (2 * mu + two_h)
+        t_max = t1 + span
         return {"mu": mu, "k": k, "omega": omega, "s_y": s_y, "e_y": e_y, "v0": v0, "w": w,
-                "t1": t1, "t_max": t_max, "e_p": e_p, "t_end": t_max + np.pi / (2 * omega)}
+                "t1": t1, "t_max": t_max, "e_p": e_p, "e_max": e_max, "slope": slope,
+                "two_h": two_h, "t_end": t_max + np.pi / (2 * omega)}
 
     def strain(self, p, t) -> np.ndarray:
         c = self.constants(p)
         t = np.asarray(t, float)
         elastic = c["v0"] / c["omega"] * np.sin(c["omega"] * np.minimum(t, c["t1"]))
         s = t - c["t1"]
-        plastic = c["e_y"] + c["w"] * s - c["k"] * c["s_y"] * s * s / 2
-        unloading = c["e_p"] + c["e_y"] * np.cos(c["omega"] * (t - c["t_max"]))
+        if c["slope"] == 0.0:
+            plastic = c["e_y"] + c["w"] * s - c["k"] * c["s_y"] * s * s / 2
+        else:
+            omega_p = np.sqrt(c["k"] * c["slope"])
+            plastic = (c["e_y"] - c["s_y"] / c["slope"] * (1 - np.cos(omega_p * s))
+                       + c["w"] / omega_p * np.sin(omega_p * s))
+        unloading = c["e_p"] + (c["e_max"] - c["e_p"]) * np.cos(c["omega"] * (t - c["t_max"]))
         return np.where(t <= c["t1"], elastic, np.where(t <= c["t_max"], plastic, unloading))
 
     # -- the scene --------------------------------------------------------------------------
@@ -114,7 +137,7 @@ class PlasticSet(Case):
         nodes, centre = self._rest(p)
         v0 = self.constants(p)["v0"]
         material = Material(p["youngs_modulus"], p["poisson_ratio"], p["density"], "linear",
-                            Plasticity(p["yield_stress"]))
+                            Plasticity(p["yield_stress"], p["hardening"]))
         mesh = TetMesh(nodes, np.array([[0, 1, 2, 3]]), material,
                        velocities=v0 * (nodes - centre) @ DIRECTION.T)
         return Scene(parts=(mesh,), gravity=(0.0, 0.0, 0.0))
@@ -166,18 +189,31 @@ class PlasticSet(Case):
         a scalar loop over the run's steps (four nodes: the case's reference, not a hot
         path)."""
         c = self.constants(p)
-        k, two_mu, s_y, e_y, omega2 = c["k"], 2 * c["mu"], c["s_y"], c["e_y"], c["omega"] ** 2
+        k, two_mu, s_y, omega2 = c["k"], 2 * c["mu"], c["s_y"], c["omega"] ** 2
+        two_h = c["two_h"]
+        share = two_h / (two_mu + two_h)  # of the trial's excess kept as stress
         name, h = spec_name(integrator), float(dt)
-        state = {"e_p": 0.0}
+        state = {"e_p": 0.0, "flow": 0.0}  # committed e_p and accumulated |de_p|
+
+        def radius():
+            return s_y + two_h * state["flow"]
+
+        def stress(e):  # the radial return from the committed state
+            trial = two_mu * (e - state["e_p"])
+            excess = abs(trial) - radius()
+            return trial if excess <= 0 else np.sign(trial) * (radius() + share * excess)
 
         def accel(e):
-            return -k * float(np.clip(two_mu * (e - state["e_p"]), -s_y, s_y))
+            return -k * float(stress(e))
 
         def implicit(e, v):  # e1 = e + h v1, v1 = v + h a(e1): a piecewise-linear root
             elastic = (e + h * v + h * h * omega2 * state["e_p"]) / (1 + h * h * omega2)
-            if abs(two_mu * (elastic - state["e_p"])) <= s_y:
+            if abs(two_mu * (elastic - state["e_p"])) <= radius():
                 return elastic
-            return e + h * v + h * h * accel(np.sign(elastic - state["e_p"]) * np.inf)
+            sign = np.sign(elastic - state["e_p"])  # s = alpha + beta e1 on this branch
+            beta = share * two_mu
+            alpha = sign * radius() * (1 - share) - beta * state["e_p"]
+            return (e + h * v - h * h * k * alpha) / (1 + h * h * k * beta)
 
         e, v, out = 0.0, c["v0"], [0.0]
         a = accel(e)
@@ -206,8 +242,11 @@ class PlasticSet(Case):
                 e = e + h * v
             else:
                 raise ValueError(f"plastic_set has no discrete solution for {integrator!r}")
-            if two_mu * abs(e - state["e_p"]) > s_y:  # commit the return
-                state["e_p"] = e - np.sign(e - state["e_p"]) * e_y
+            trial = two_mu * (e - state["e_p"])
+            if abs(trial) > radius():  # commit the return
+                step = (abs(trial) - radius()) / (two_mu + two_h)
+                state["e_p"] += np.sign(trial) * step
+                state["flow"] += step
             a = accel(e)
             out.append(e)
         return np.array(out)

@@ -40,16 +40,33 @@ def test_the_closed_form_permanent_set():
     assert CASE.strain(p, [c["t_end"]])[0] == pytest.approx(c["e_p"], abs=1e-15)
 
 
+@pytest.mark.parametrize("variant", ["default", "hardening"])
+def test_the_closed_form_balances_energy(variant):
+    """In e-space (e'' = -k s(e)) the initial kinetic energy v0^2 / 2 is, at the turning
+    point, k times the work of s: mu e_y^2 + s_y (e_max - e_y) + h' (e_max - e_y)^2 / 2; and
+    e_p = 2 mu (e_max - e_y) / (2 mu + 2 H / 3) leaves the unloading amplitude at
+    s_max / (2 mu). Checks the plastic phase's solution independently (to 1e-12)."""
+    p = CASE.variant_params(variant)
+    c = CASE.constants(p)
+    rise = c["e_max"] - c["e_y"]
+    work = c["mu"] * c["e_y"] ** 2 + c["s_y"] * rise + c["slope"] * rise ** 2 / 2
+    assert c["k"] * work == pytest.approx(c["v0"] ** 2 / 2, rel=1e-12)
+    s_max = c["s_y"] + c["slope"] * rise
+    assert c["e_max"] - c["e_p"] == pytest.approx(s_max / (2 * c["mu"]), rel=1e-12)
+    assert CASE.strain(p, [c["t_max"]])[0] == pytest.approx(c["e_max"], rel=1e-12)
+
+
+@pytest.mark.parametrize("variant", ["default", "hardening"])
 @pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler",
                                         "velocity_verlet", "rk4", "implicit_euler",
                                         "baraff_witkin"])
-def test_the_engine_is_the_exact_discrete_solution(integrator):
+def test_the_engine_is_the_exact_discrete_solution(integrator, variant):
     """err_max equals the case's discrete solution's deviation to round-off (the reduction to
     one degree of freedom is exact), and the permanent set read from the nodes at t_end is
     e_p within the method's own error there."""
-    p = CASE.variant_params("default")
+    p = CASE.variant_params(variant)
     dt = CASE.reference_dt(p)
-    row = run_job(Job("plastic_set", "default", "refsim", "", integrator, dt), repeats=0)
+    row = run_job(Job("plastic_set", variant, "refsim", "", integrator, dt), repeats=0)
     assert row["status"] == "ok" and row["consistency"] == "consistent", row["reason"]
     bound, _ = CASE.tolerance(p, integrator, 1, dt)
     steps = int(round(CASE.t_end(p) / dt))
