@@ -25,7 +25,8 @@ it settles. Why this works and why in stages (fem_softbody.py has the step):
   explicit step blows up (a 1152-tetrahedron bar at h = b = 0.97 s; each step then costs
   ~30 us per tetrahedron): a smaller h settles it, and the floor stays higher.
 A stage ends once its largest node move per step has not halved in STALL_HALVINGS x the steps
-the slowest linear mode needs to halve (`halving_steps`), with the move below h x 1e-8 m/s.
+the slowest linear mode needs to halve (`halving_steps`), with the move below h x 1e-8 m/s,
+and its positions, reloaded at rest, move at most VERIFY x h x 1e-8 m/s in one step.
 The solve ends when the floor is within ROUND_OFF x max|x|, when the clamp keeps h from growing
 past the last settled stage's, or when a settled stage's smallest move exceeds the smallest so
 far (a larger h then only amplifies the forces' rounding, by (h w)^2); it returns the
@@ -58,6 +59,10 @@ STALL_HALVINGS = 8.0  # a stage ends (or restarts) when its move has not halved 
 #                       times softer than the damping's rest stiffness
 STALL_MIN = 20
 CLAMP_CHECK = 20  # steps between checks whether a clamp-held stage may restart with a larger h
+VERIFY = 10.0  # a settled stage's positions, reloaded at rest, may move VERIFY x h x 1e-8 m/s
+#                in one step (pybullet's damping solve can stall at its 300 iterations and
+#                leave a near-still state far from equilibrium: a 1152-tetrahedron bar once
+#                "settled" 2.5e-4 m away; its runs are not repeatable there)
 MAX_TET_STEPS = 2e6  # pybullet steps x tetrahedra per solve, all stages together (then a
 #                      failure): 16,000 steps of the 120-tetrahedron bar; a damped step costs
 #                      up to ~30 us per tetrahedron (300 conjugate-residual iterations)
@@ -75,7 +80,8 @@ DESCRIPTION = (
     f"stage, capped at the clamp-safe step sqrt(diagonal / ({CLAMP_MARGIN:g} max|a|)); a stage "
     f"ends when its largest node move per step has not halved in {STALL_HALVINGS:g} x the "
     "steps the slowest linear mode needs to halve, with the move below h x 1e-8 m/s (the "
-    f"damping solve's tolerance), else it restarts from its start with R = {RETRY:g}, then "
+    f"damping solve's tolerance) and the positions, reloaded at rest, moving at most "
+    f"{VERIFY:g} x h x 1e-8 m/s in one step, else it restarts from its start with R = {RETRY:g}, then "
     f"with h / {RETRY:g} and R = 1 (h capped there); the solve "
     "ends when the floor 1e-8 m/s / (h w_min^2) is within "
     f"{ROUND_OFF:.3g} x max|x|, when the clamp stops h from growing, when a stage's smallest "
@@ -167,10 +173,22 @@ class Relaxation:
             if steps - mark[1] >= window:
                 if move > h * CR_TOLERANCE:
                     raise Unsettled(steps, move)
-                return kept, best, steps, True
+                self.verify(kept, h, ratio, steps)
+                return kept, best, steps + 1, True  # the verifying step counted
             if h < target and steps % CLAMP_CHECK == 0 and \
                     self.clamp_safe_step(x) >= min(target, RAMP * h):
                 return x, move, steps, False
+
+    def verify(self, x, h, ratio, steps):
+        """Unsettled unless the body, loaded at x at rest, moves at most VERIFY x h x
+        CR_TOLERANCE in one step: an equilibrium within the stage's floor kicks its nodes by
+        about the damping solve's tolerance; a state off it by e moves by about e."""
+        body = load_mesh(self.p, self.cid, self.mesh, self.tet_file, ratio * h, self.gravity, x)
+        self.p.setPhysicsEngineParameter(fixedTimeStep=h, numSubSteps=0, physicsClientId=self.cid)
+        self.p.stepSimulation(physicsClientId=self.cid)
+        move = float(np.abs(node_positions(self.p, self.cid, body) - x).max())
+        if not move <= VERIFY * h * CR_TOLERANCE:
+            raise Unsettled(steps + 1, move)
 
     def solve(self, x):
         """(positions, pybullet steps, stage log, the error floor of the stage kept)."""
