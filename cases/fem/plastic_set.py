@@ -24,6 +24,9 @@ kinetic energy spent in plastic work), reached when the stress first returns to 
 quarter period after t_max: the run's end (past it the stress heads back to -s_y, exactly the
 yield surface, where rounding would decide). Default v0 = sqrt(7) omega e_y: e_p = 3 e_y
 = 0.032 (uniaxial measures: eps_p,xx = 2 e_p / sqrt(6) = 0.026, lateral half of it).
+Variant plane_strain: an equilateral triangle (edge a, unit thickness) in plane strain, N =
+diag(1, -1, 0) / sqrt(2) (eps_zz = 0 stays 0: the deviator has no zz part), lumped masses
+rho t A / 3: the same argument gives k = 6 / (rho a^2) (B = (2 / a^2) I in 2D).
 Variant hardening (H = 200 Pa, linear isotropic: the yield radius s_y + (2 H / 3) e_p in
 these units): while flowing e_p = 2 mu (e - e_y) / (2 mu + 2 H / 3) and s = s_y + h' (e - e_y),
 h' = 2 mu (2 H / 3) / (2 mu + 2 H / 3), so the plastic phase is a slower oscillation,
@@ -49,11 +52,12 @@ import numpy as np
 
 from refsim.case import Case, Param, roundoff_tolerance
 from refsim.integrators.spec import spec_name
-from refsim.scene import Material, Plasticity, Scene, TetMesh
+from refsim.scene import Material, Plasticity, Scene, TetMesh, TriangleMesh
 
 from ..particles.stiff_spring import sample_steps
 
 DIRECTION = np.diag([2.0, -1.0, -1.0]) / np.sqrt(6.0)
+PLANE_DIRECTION = np.diag([1.0, -1.0, 0.0]) / np.sqrt(2.0)  # in plane strain: eps_zz = 0
 Y_SWEEP = (0.04, 0.02)  # omega dt
 Y_REFERENCE = 0.04
 
@@ -77,6 +81,7 @@ class PlasticSet(Case):
         "poisson_ratio": Param(0.3, -0.99, 0.49, "nu"),
         "yield_stress": Param(10.0, 0.0, 1e12, "sigma_y (Pa)", low_inclusive=False),
         "hardening": Param(0.0, 0.0, 1e12, "H (Pa), linear isotropic hardening (0: ideal)"),
+        "element": Param("tetrahedron", choices=("tetrahedron", "triangle")),
         "density": Param(1.0, 1e-6, 1e6, "rho (kg/m^3)", low_inclusive=False),
         "edge": Param(1.0, 1e-3, 1e3, "a (m)", low_inclusive=False),
         "overdrive": Param(np.sqrt(7.0), 1.0, 10.0, "v0 / (omega e_y): e_p = e_y (r^2 - 1) / 2",
@@ -84,14 +89,15 @@ class PlasticSet(Case):
         "dt_sweep": Param("reference", choices=("reference", "full"),
                           doc="the reference dt alone (the default run's cost) or the sweep"),
     }
-    variants = {"default": {}, "sweep": {"dt_sweep": "full"}, "hardening": {"hardening": 200.0}}
+    variants = {"default": {}, "sweep": {"dt_sweep": "full"}, "hardening": {"hardening": 200.0},
+                "plane_strain": {"element": "triangle"}}
     default_variants = ("default",)
     quick_variants = ("default",)
 
     # -- the closed form --------------------------------------------------------------------
     def constants(self, p) -> dict:
         mu = p["youngs_modulus"] / (2 * (1 + p["poisson_ratio"]))
-        k = 8.0 / (p["density"] * p["edge"] ** 2)
+        k = (8.0 if p["element"] == "tetrahedron" else 6.0) / (p["density"] * p["edge"] ** 2)
         omega = np.sqrt(2 * mu * k)
         s_y = np.sqrt(2.0 / 3.0) * p["yield_stress"]
         e_y = s_y / (2 * mu)
@@ -129,8 +135,14 @@ class PlasticSet(Case):
         return np.where(t <= c["t1"], elastic, np.where(t <= c["t_max"], plastic, unloading))
 
     # -- the scene --------------------------------------------------------------------------
+    @staticmethod
+    def direction(p) -> np.ndarray:
+        return DIRECTION if p["element"] == "tetrahedron" else PLANE_DIRECTION
+
     def _rest(self, p):
         nodes = regular_tetrahedron(p["edge"])
+        if p["element"] == "triangle":
+            nodes = nodes[:3]
         return nodes, nodes.mean(0)
 
     def scene(self, p):
@@ -138,8 +150,12 @@ class PlasticSet(Case):
         v0 = self.constants(p)["v0"]
         material = Material(p["youngs_modulus"], p["poisson_ratio"], p["density"], "linear",
                             Plasticity(p["yield_stress"], p["hardening"]))
-        mesh = TetMesh(nodes, np.array([[0, 1, 2, 3]]), material,
-                       velocities=v0 * (nodes - centre) @ DIRECTION.T)
+        velocities = v0 * (nodes - centre) @ self.direction(p).T
+        if p["element"] == "triangle":
+            mesh = TriangleMesh(nodes, np.array([[0, 1, 2]]), material, velocities=velocities,
+                                thickness=1.0, plane="strain")
+        else:
+            mesh = TetMesh(nodes, np.array([[0, 1, 2, 3]]), material, velocities=velocities)
         return Scene(parts=(mesh,), gravity=(0.0, 0.0, 0.0))
 
     def bodies(self, p):
@@ -168,20 +184,21 @@ class PlasticSet(Case):
         nodes, centre = self._rest(p)
         e = self.strain(p, np.atleast_1d(t))
         return {"x": centre + (nodes - centre)[None] + e[:, None, None] *
-                ((nodes - centre) @ DIRECTION.T)[None]}
+                ((nodes - centre) @ self.direction(p).T)[None]}
 
     def motion_scale(self, p):
         """The largest displacement's 2-norm over the nodes, e_max ||N (X - c)|| (m)."""
         nodes, centre = self._rest(p)
         c = self.constants(p)
-        return float((c["e_p"] + c["e_y"]) * np.linalg.norm((nodes - centre) @ DIRECTION.T))
+        return float(c["e_max"] * np.linalg.norm((nodes - centre) @ self.direction(p).T))
 
     def extra_metrics(self, p, obs, observed, reference):
         nodes, _ = self._rest(p)
         x = observed["x"][-1]
-        dm, ds = (nodes[1:] - nodes[0]).T, (x[1:] - x[0]).T
+        d = 3 if p["element"] == "tetrahedron" else 2
+        dm, ds = (nodes[1:, :d] - nodes[0, :d]).T, (x[1:, :d] - x[0, :d]).T
         f = ds @ np.linalg.inv(dm)
-        return {"permanent_strain": float(np.sum((f - np.eye(3)) * DIRECTION)),
+        return {"permanent_strain": float(np.sum((f - np.eye(d)) * self.direction(p)[:d, :d])),
                 "permanent_strain_exact": self.constants(p)["e_p"]}
 
     def discrete(self, p, integrator, dt, steps) -> np.ndarray:
@@ -257,7 +274,7 @@ class PlasticSet(Case):
         c = self.constants(p)
         steps = int(round(c["t_end"] / dt))
         nodes, centre = self._rest(p)
-        size = float(np.linalg.norm((nodes - centre) @ DIRECTION.T))
+        size = float(np.linalg.norm((nodes - centre) @ self.direction(p).T))
         samples = sample_steps(steps, int(round(self.sample_dt(p) / dt)))
         e = self.discrete(p, integrator, dt, steps)[samples]
         deviation = size * float(np.max(np.abs(e - self.strain(p, samples * dt))))

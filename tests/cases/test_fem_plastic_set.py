@@ -9,22 +9,23 @@ from refsim.models.fem_assembly import Assembler
 from refsim.models.fem_model import ElasticBody
 from refsim.registry import get_case
 from refsim.run.job import Job, run_job
-from refsim_cases.fem.plastic_set import DIRECTION
 
 CASE = get_case("plastic_set")
 
 
-def test_the_deviatoric_mode_has_omega_squared_2_mu_k():
+@pytest.mark.parametrize("variant", ["default", "plane_strain"])
+def test_the_deviatoric_mode_has_omega_squared_2_mu_k(variant):
     """refsim's stiffness and lumped mass of the tetrahedron: K x_N = omega^2 M x_N for the
-    mode x_N = N (X - c), omega^2 = 2 mu 8 / (rho a^2) (12 dofs, a few roundings: 1e-12)."""
-    p = CASE.variant_params("default")
+    mode x_N = N (X - c), omega^2 = 2 mu k, k = 8 / (rho a^2) (tetrahedron) or 6 / (rho a^2)
+    (equilateral triangle, plane strain) (12 or 6 dofs, a few roundings: 1e-12)."""
+    p = CASE.variant_params(variant)
     mesh = CASE.scene(p).parts[0]
     body = ElasticBody.of(mesh)
     assembler = Assembler(body)
     k = assembler.stiffness(body.elements.rest).toarray()
-    m = np.repeat(assembler.lumped_mass(p["density"]), 3)
+    m = np.repeat(assembler.lumped_mass(p["density"]), body.d)
     nodes, centre = CASE._rest(p)
-    mode = ((nodes - centre) @ DIRECTION.T).reshape(-1)
+    mode = ((nodes - centre) @ CASE.direction(p).T)[:, :body.d].reshape(-1)
     omega2 = CASE.constants(p)["omega"] ** 2
     assert np.abs(k @ mode - omega2 * m * mode).max() <= 1e-12 * omega2 * np.abs(mode).max()
 
@@ -56,7 +57,7 @@ def test_the_closed_form_balances_energy(variant):
     assert CASE.strain(p, [c["t_max"]])[0] == pytest.approx(c["e_max"], rel=1e-12)
 
 
-@pytest.mark.parametrize("variant", ["default", "hardening"])
+@pytest.mark.parametrize("variant", ["default", "hardening", "plane_strain"])
 @pytest.mark.parametrize("integrator", ["explicit_euler", "symplectic_euler",
                                         "velocity_verlet", "rk4", "implicit_euler",
                                         "baraff_witkin"])
@@ -72,7 +73,7 @@ def test_the_engine_is_the_exact_discrete_solution(integrator, variant):
     steps = int(round(CASE.t_end(p) / dt))
     e = CASE.discrete(p, integrator, dt, steps)
     nodes, centre = CASE._rest(p)
-    size = np.linalg.norm((nodes - centre) @ DIRECTION.T)
+    size = np.linalg.norm((nodes - centre) @ CASE.direction(p).T)
     deviation = size * np.max(np.abs(e - CASE.strain(p, np.arange(steps + 1) * dt)))
     assert abs(row["err_max"] - deviation) <= bound - deviation + 1e-15  # the round-off part
     assert row["permanent_strain"] == pytest.approx(e[-1], abs=1e-12)
@@ -95,6 +96,6 @@ def test_a_parameter_0_1_percent_off_fails_the_bound(integrator, margin, change)
     bound, _ = CASE.tolerance(p, integrator, 2, dt)
     off = CASE.discrete({**p, **change}, integrator, dt, steps)
     nodes, centre = CASE._rest(p)
-    size = np.linalg.norm((nodes - centre) @ DIRECTION.T)
+    size = np.linalg.norm((nodes - centre) @ CASE.direction(p).T)
     error = size * np.max(np.abs(off - CASE.strain(p, np.arange(steps + 1) * dt)))
     assert error > margin * bound, error / bound
