@@ -36,6 +36,13 @@ BUILTIN = _builtin_cases()
 # formulations that run a slide's formula as printed where it is wrong (the harness must fail
 # them): the collision seed's impulse, the sprinkler's `velocity == g*dt`
 AS_PRINTED = {"hard_sphere_seed", "as_printed"}
+# a rigid rotation leaves these laws' stress zero up to round-off: the slide's printed nodal
+# force (P n_i, unweighted) and the correct one (w_i P n_i) both vanish, so a printed row
+# either equals the correct one (symplectic steppers: 6e-15 m) or shows the printed force's
+# instability growing that round-off (explicit Euler: 107 m, Newton stalls): no verdict to
+# hold either way, not run here (the linear variant, whose stress is not zero, is)
+PRINTED_FORCE_VANISHES = {("rigid_rotation", law) for law in ("green", "corotated",
+                                                             "neo_hookean")}
 # the slides' orientation update as printed, R' = R + [phi]x R: a first-order retraction, so
 # every method above first order run on it is not the method it names (the engine declares
 # order 1 for it): such rows must come out inconsistent; first-order rows are judged as usual
@@ -170,6 +177,8 @@ def _full_runs():
         if "sph" in case.tags or (name, variant) in AT_SCALE:
             continue
         scene = case.scene(case.variant_params(variant))
+        if formulation in AS_PRINTED and (name, variant) in PRINTED_FORCE_VANISHES:
+            continue
         slow = formulation in ("kkt", "penalty") or variant == "box_1000"
         for integrator in ENGINE.offered_integrators(scene):
             if ENGINE.supports(scene, integrator) is None:
@@ -200,6 +209,10 @@ def test_full_run_within_tolerance_at_reference_dt(name, variant, formulation, i
 def _verdict(case, p, formulation, integrator, row):
     by_design = (case.name, integrator) in DIVERGES_BY_DESIGN or \
         (case.name, row["variant"], integrator) in DIVERGES_BY_DESIGN
+    if formulation in AS_PRINTED and row["status"] in ("diverged", "failed"):
+        # the printed formula's own behaviour (the FEM printed force is not conservative
+        # and 1/w stiffer: explicit steps blow up, Newton stalls): never a pass
+        return None
     if row["status"] == "diverged":
         if formulation == "penalty" and integrator in NEVER_STABLE:
             return None
@@ -228,7 +241,11 @@ _ORBIT_COLLAPSE = ("backward Euler removes energy every step (|R(iy)| < 1 on an 
                    "the orbit shrinks into a close approach where its Newton iteration fails")
 _EULER_GROWTH = ("explicit Euler's amplitude grows by (1 + y^2)^(1/2) a step on an "
                  "oscillation: over the long variant's horizon past the divergence bound")
+_STIFF_MODE_GROWTH = ("explicit Euler's amplitude grows by (1 + (w h)^2)^(1/2) a step on every "
+                      "mode: the cantilever's stiffest mode (75 x the first) passes the "
+                      "divergence bound within the run")
 DIVERGES_BY_DESIGN = {
+    ("bending_frequency", "explicit_euler"): _STIFF_MODE_GROWTH,
     ("kepler", "implicit_euler"): _ORBIT_COLLAPSE,
     ("figure_eight", "implicit_euler"): _ORBIT_COLLAPSE,
     ("lj_dimer", "long", "explicit_euler"): _EULER_GROWTH,
