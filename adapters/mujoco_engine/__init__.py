@@ -26,8 +26,9 @@ contact parameters) and `restitution` (the calibration of the contact damping).
 
 Every scene runs through a model group (`groups/`, one module each): "particles" (point masses,
 springs, rods, drag), "spheres" (spheres under a contact model, walls), "gravity_pairs",
-"rigid", "pivots", "contact_rolling" and "spring_network"; `engine` only declares who the
-engine is and why it refuses what no group runs (`refusals`: grids, SPH fluid, meshes, emitter).
+"rigid", "pivots", "contact_rolling", "spring_network" and "fem" (one P1 mesh as a flex);
+`engine` only declares who the engine is and why it refuses what no group runs (`refusals`:
+grids, SPH fluid, several meshes, emitter).
 
 Modules, one per concern:
 - `methods`: the MuJoCo integrators as refsim declares them;
