@@ -75,7 +75,7 @@ def test_the_default_matrix_has_not_grown_since_its_measurement():
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "issue 25 is open: the default run measured 424 s (809 s of row work on 2 workers) + 24 s of "
+    "issue 25 is open: the default run measured 396 s (752 s of row work on 2 workers) + 28 s of "
     "report from a fresh clone on a quiet Intel Xeon on 2026-11-27, against 215 s; strict: it "
     "fails once it fits, and this mark goes"))
 def test_the_default_matrix_fits_the_default_run_budget():
