@@ -36,7 +36,7 @@ import numpy as np
 
 from refsim.models.fem_assembly import lumped_masses
 from refsim.models.fem_model import ElasticBody
-from refsim.scene import TetMesh, TriangleMesh
+from refsim.scene import TriangleMesh, single_mesh
 
 from .mjcf import xml_floats
 from .network_mjcf import SOLVER_ITERATIONS, SOLVER_TOLERANCE
@@ -51,8 +51,7 @@ FLEX_RADIUS = 1e-3  # m: the flex's collision radius (contacts off: it enters no
 
 def mesh_of(scene):
     """The scene's one TriangleMesh or TetMesh, None when there is not exactly one."""
-    meshes = scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh)
-    return meshes[0] if len(meshes) == 1 else None
+    return single_mesh(scene)
 
 
 def plane_reason(mesh) -> str | None:

@@ -46,7 +46,8 @@ from refsim.engine import EngineFailure
 from refsim.models.fem_assembly import Assembler
 from refsim.models.fem_model import ElasticBody
 
-from .fem_softbody import CR_TOLERANCE, load_mesh, node_masses, node_positions
+from .fem_softbody import CR_TOLERANCE, load_mesh, node_masses
+from .softbody import node_positions
 
 C_SLOWEST = 3.0  # h w_min of the first stage: the slowest mode contracts by 1/sqrt(10) a step
 RAMP = 100.0  # h and b grow a hundredfold from stage to stage (tenfold: 1.5-2x the stages)

@@ -111,11 +111,6 @@ def load_mesh(p, cid, mesh, tet_file, damping, gravity, positions=None) -> int:
     return body
 
 
-def node_positions(p, cid, body) -> np.ndarray:
-    return np.array(p.getMeshData(body, -1, flags=p.MESH_DATA_SIMULATION_MESH,
-                                  physicsClientId=cid)[1], float)
-
-
 def softbody_settings(mesh) -> dict:
     """The settings every pybullet FEM Sim states."""
     mu, lam = neo_hookean_coefficients(mesh.material)

@@ -179,3 +179,16 @@ def capture_rest_lengths(p, cid, body, rest_positions, scene) -> None:
 def node_positions(p, cid, body) -> np.ndarray:
     return np.array(p.getMeshData(body, -1, flags=p.MESH_DATA_SIMULATION_MESH,
                                   physicsClientId=cid)[1], float)
+
+
+def step_nodes(p, cid, body, n, x, dt):
+    """n pybullet steps of a soft body whose node positions are x before them: (positions
+    after, velocities (x_n - x_(n-1)) / dt from the last step: the API gives no node
+    velocities)."""
+    step = p.stepSimulation
+    for _ in range(n - 1):
+        step(physicsClientId=cid)
+    previous = node_positions(p, cid, body) if n > 1 else x
+    step(physicsClientId=cid)
+    after = node_positions(p, cid, body)
+    return after, (after - previous) / dt

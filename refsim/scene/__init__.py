@@ -14,7 +14,8 @@ from ._validate import Vec
 from .fluid import FluidBlock
 from .grids import BOUNDARY_KINDS, Grid
 from .joints import JOINT_KINDS, Joint, Joints
-from .meshes import PLANE_MODES, STRAIN_MEASURES, Material, Plasticity, TetMesh, TriangleMesh
+from .meshes import (PLANE_MODES, STRAIN_MEASURES, Material, Plasticity, TetMesh, TriangleMesh,
+                     single_mesh)
 from .networks import SpringNetwork
 from .particles import Body, Particles
 from .rigid import RigidBodies
@@ -25,4 +26,5 @@ from .walls import ContactModel, Wall, Walls
 __all__ = ["BOUNDARY_KINDS", "Body", "ContactModel", "FluidBlock", "Grid", "JOINT_KINDS",
            "Joint", "Joints", "MOVING_KINDS", "Material", "PART_KINDS", "PLANE_MODES",
            "Particles", "Plasticity", "RigidBodies", "STRAIN_MEASURES", "Scene", "Spring",
-           "SpringNetwork", "Springs", "TetMesh", "TriangleMesh", "Vec", "Wall", "Walls"]
+           "SpringNetwork", "Springs", "TetMesh", "TriangleMesh", "Vec", "Wall", "Walls",
+           "single_mesh"]

@@ -276,3 +276,10 @@ class TetMesh(ArrayPart):
 
     def features(self) -> set[str]:
         return {"fem"} | self.material.features()
+
+
+def single_mesh(scene):
+    """The scene's one TriangleMesh or TetMesh part, None when it has none or several (what
+    every engine's FEM group claims and runs)."""
+    meshes = scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh)
+    return meshes[0] if len(meshes) == 1 else None

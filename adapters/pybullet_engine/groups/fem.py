@@ -23,12 +23,13 @@ import numpy as np
 
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators.spec import spec_name
-from refsim.scene import TetMesh, TriangleMesh
+from refsim.scene import TriangleMesh, single_mesh
 
 from .. import fem_relax as relax
 from ..fem_relax import Relaxation
-from ..fem_softbody import TetFile, load_mesh, node_positions, softbody_settings
+from ..fem_softbody import TetFile, load_mesh, softbody_settings
 from ..runtime import INTEGRATOR, OwnsClient, c_stdout_silenced, import_pybullet
+from ..softbody import node_positions, step_nodes
 
 STEADY = {"name": "steady", "order": 0, "family": "static solve (damped dynamics)",
           "explicit": False, "symplectic": False}
@@ -36,8 +37,7 @@ INTEGRATORS = ("steady", "symplectic_euler")
 
 
 def _mesh(scene):
-    meshes = scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh)
-    return meshes[0] if len(meshes) == 1 else None
+    return single_mesh(scene)
 
 
 def claims(scene) -> bool:
@@ -156,13 +156,7 @@ class DynamicSim(_Client, Sim):
         self.v = np.zeros_like(self.x)
 
     def _step_impl(self, n):
-        step, cid = self.p.stepSimulation, self.client
-        for _ in range(n - 1):
-            step(physicsClientId=cid)
-        previous = node_positions(self.p, cid, self.body) if n > 1 else self.x
-        step(physicsClientId=cid)
-        self.x = node_positions(self.p, cid, self.body)
-        self.v = (self.x - previous) / self.dt
+        self.x, self.v = step_nodes(self.p, self.client, self.body, n, self.x, self.dt)
 
     def _observe(self):
         return {"x": self.x.copy(), "v": self.v.copy()}

@@ -31,6 +31,7 @@ from ..softbody import (
     node_positions,
     rest_scale,
     softbody_reason,
+    step_nodes,
 )
 
 FORMULATIONS = {"softbody": "pybullet's mass-spring soft body (loadSoftBody useMassSpring=1, "
@@ -59,13 +60,7 @@ class PybulletNetworkSim(OwnsClient, Sim):
             raise
 
     def _step_impl(self, n):
-        step, cid = self.p.stepSimulation, self.client
-        for _ in range(n - 1):
-            step(physicsClientId=cid)
-        previous = node_positions(self.p, cid, self.body) if n > 1 else self.x
-        step(physicsClientId=cid)
-        self.x = node_positions(self.p, cid, self.body)
-        self.v = (self.x - previous) / self.dt
+        self.x, self.v = step_nodes(self.p, self.client, self.body, n, self.x, self.dt)
 
     def _observe(self):
         return observation(self.x, self.v)

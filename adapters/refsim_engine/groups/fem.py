@@ -33,7 +33,7 @@ from refsim.integrators.spec import spec_name
 from refsim.models import fem_printed
 from refsim.models.fem_static import solve_static
 from refsim.models.fem_system import FemSystem
-from refsim.scene import TetMesh, TriangleMesh
+from refsim.scene import single_mesh
 
 from ..stepped import SteppedSim
 
@@ -47,8 +47,7 @@ NEWTON_RTOL = 1e-12  # of the force scale: a residual this small moves nodes by 
 
 
 def _mesh(scene):
-    meshes = scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh)
-    return meshes[0] if len(meshes) == 1 else None
+    return single_mesh(scene)
 
 
 def claims(scene) -> bool:

@@ -36,7 +36,7 @@ from refsim.engine import EngineFailure, ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.spec import spec_name
 from refsim.models.fem_model import ElasticBody
-from refsim.scene import TetMesh, TriangleMesh
+from refsim.scene import single_mesh
 
 from ..kernel_store import arrays_setting, to_taichi
 
@@ -54,8 +54,7 @@ NATIVE = {"explicit_euler": "kernel: x += h v; v += h a(x) (from the old state)"
 
 
 def _mesh(scene):
-    meshes = scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh)
-    return meshes[0] if len(meshes) == 1 else None
+    return single_mesh(scene)
 
 
 def claims(scene) -> bool:

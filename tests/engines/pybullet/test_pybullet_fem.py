@@ -14,8 +14,9 @@ import numpy as np
 import pybullet  # noqa: F401  (fail, never skip, without the engine)
 import pytest
 
-from refsim_adapters.pybullet_engine.fem_softbody import (TetFile, load_mesh, neo_hookean_coefficients,
-                                                          node_masses, node_positions)
+from refsim_adapters.pybullet_engine.fem_softbody import (TetFile, load_mesh,
+                                                          neo_hookean_coefficients, node_masses)
+from refsim_adapters.pybullet_engine.softbody import node_positions
 from refsim_adapters.pybullet_engine.fem_vtk import write_vtk
 from refsim_adapters.pybullet_engine.runtime import c_stdout_silenced
 from refsim_cases.fem._static import ROUNDING_TERMS, free_stiffness_extremes
