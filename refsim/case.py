@@ -336,6 +336,12 @@ def is_symplectic(settings) -> bool:
 EPS = float(np.finfo(float).eps)  # double precision: every engine here steps in float64
 
 
+def sample_steps(steps: int, stride: int) -> np.ndarray:
+    """The step counts at which the harness observes a run (refsim.run.job._accuracy_pass): 0,
+    stride, 2 stride, ..., and the last step."""
+    return np.unique(np.append(np.arange(0, steps, max(1, stride)), steps))
+
+
 def roundoff_tolerance(steps: int, state_scale: float) -> tuple[float, str]:
     """(bound, reason) of the round-off `steps` steps may accumulate in double precision.
 

@@ -50,11 +50,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import Case, Param, roundoff_tolerance
+from refsim.case import Case, Param, roundoff_tolerance, sample_steps
 from refsim.integrators.spec import spec_name
 from refsim.scene import Material, Plasticity, Scene, TetMesh, TriangleMesh
 
-from ..particles.stiff_spring import sample_steps
 
 DIRECTION = np.diag([2.0, -1.0, -1.0]) / np.sqrt(6.0)
 PLANE_DIRECTION = np.diag([1.0, -1.0, 0.0]) / np.sqrt(2.0)  # in plane strain: eps_zz = 0

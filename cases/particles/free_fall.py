@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance
+from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance, sample_steps
 from refsim.expected import discrete_solution
 from refsim.scene import Body, Particles, Scene
 
-from .stiff_spring import adaptive_bound, sample_steps
+from .stiff_spring import adaptive_bound
 
 
 class FreeFall(Case):

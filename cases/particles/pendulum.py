@@ -20,12 +20,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import ellipe, ellipj, ellipk
 
-from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance
+from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance, sample_steps
 from refsim.expected import discrete_solution, oscillator_rates
 from refsim.integrators import get_integrator
 from refsim.scene import Body, Joint, Joints, Particles, Scene
 
-from .stiff_spring import adaptive_bound, sample_steps
+from .stiff_spring import adaptive_bound
 
 # The one safety factor: the unit linear oscillator's errors (at the fastest rate, converted
 # by the swing's sensitivities) are the leading terms only; the nonlinear swing's harmonics

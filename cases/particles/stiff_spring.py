@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance
+from refsim.case import Case, Param, adaptive_rtol, roundoff_tolerance, sample_steps
 from refsim.expected import discrete_solution
 from refsim.integrators import get_integrator
 from refsim.integrators.tableaux import DOPRI5
@@ -211,12 +211,6 @@ def damped_oscillator(w0, zeta, u0, v0, t):
 
 
 # -- exact discrete solutions of the named method: shared by the particle cases ---------------
-def sample_steps(steps: int, stride: int) -> np.ndarray:
-    """The step counts at which the harness observes a run (refsim.run.job._accuracy_pass): 0,
-    stride, 2 stride, ..., and the last step."""
-    return np.unique(np.append(np.arange(0, steps, max(1, stride)), steps))
-
-
 def linear_jacobian(a, b):
     """J of z' = J z, z = (x, v), for x'' = A x + B v."""
     a, b = np.atleast_2d(a), np.atleast_2d(b)
