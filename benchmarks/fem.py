@@ -62,7 +62,7 @@ def _timed(fn, repeats):
 
 
 def _mesh(n):
-    from refsim.models.fem_meshes import rectangle_triangles
+    from refsim.models.fem.meshes import rectangle_triangles
     from refsim.scene import Material, TriangleMesh
     nodes, tris = rectangle_triangles(n, n)
     left = np.flatnonzero(nodes[:, 0] == 0.0)
@@ -74,9 +74,9 @@ def _mesh(n):
 
 
 def _inhouse(mesh, repeats):
-    from refsim.models.fem_assembly import Assembler
-    from refsim.models.fem_model import ElasticBody
-    from refsim.models.fem_static import solve_static
+    from refsim.models.fem.assembly import Assembler
+    from refsim.models.fem.model import ElasticBody
+    from refsim.models.fem.static import solve_static
     t0 = time.perf_counter()
     body = ElasticBody.of(mesh)
     assembler = Assembler(body)
@@ -192,7 +192,7 @@ def _figure(name, value, units, engine, description):
 
 
 def _stepping_scene(n):
-    from refsim.models.fem_meshes import rectangle_triangles
+    from refsim.models.fem.meshes import rectangle_triangles
     from refsim.scene import Material, Scene, TriangleMesh
     nodes, tris = rectangle_triangles(n, n)
     mesh = TriangleMesh(nodes, tris, Material(E, NU, 1.0, "corotated"), thickness=1.0,

@@ -34,8 +34,8 @@ import warnings
 
 import numpy as np
 
-from refsim.models.fem_assembly import lumped_masses
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.assembly import lumped_masses
+from refsim.models.fem.model import ElasticBody
 from refsim.scene import TriangleMesh, single_mesh
 
 from .mjcf import xml_floats

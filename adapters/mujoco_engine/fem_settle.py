@@ -31,8 +31,8 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from refsim.models.fem_assembly import Assembler
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.assembly import Assembler
+from refsim.models.fem.model import ElasticBody
 
 RTOL = 1e-12  # of the force scale: the in-house static solve's stop (newton_rtol)
 ROUNDING_TERMS = 64  # products summed into one nodal force (the static cases' bound's count)

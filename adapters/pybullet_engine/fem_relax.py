@@ -43,8 +43,8 @@ import scipy.linalg
 import scipy.sparse.linalg
 
 from refsim.engine import EngineFailure
-from refsim.models.fem_assembly import Assembler
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.assembly import Assembler
+from refsim.models.fem.model import ElasticBody
 
 from .fem_softbody import CR_TOLERANCE, load_mesh, node_masses
 from .softbody import node_positions

@@ -47,7 +47,7 @@ import tempfile
 
 import numpy as np
 
-from refsim.models.fem_laws import law_of
+from refsim.models.fem.laws import law_of
 from refsim.scene.meshes import tetrahedron_volumes
 
 from .fem_vtk import write_vtk

@@ -1,4 +1,4 @@
-"""Float64 taichi kernels of a P1 finite-element mesh (refsim.models.fem_elements and
+"""Float64 taichi kernels of a P1 finite-element mesh (refsim.models.fem.elements and
 fem_system's model): deformation gradients, the laws' stresses (`fem_stress`), nodal forces,
 lumped masses, loads and gravity, the four explicit steppers of the fem group, and the
 tangent stiffness's triplets for the static Newton solve.

@@ -1,4 +1,4 @@
-"""Float64 taichi functions of the hyperelastic laws of refsim.models.fem_laws, in the same
+"""Float64 taichi functions of the hyperelastic laws of refsim.models.fem.laws, in the same
 formulas and (where the arithmetic allows) the same operation order: the first Piola stress
 P(F) and its directional derivative dP = (dP/dF) : dF (the static Newton solve's tangent),
 for one element's constant F (d x d, d = F.n = 2 or 3).

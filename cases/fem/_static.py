@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.case import EPS, SteadyCase
-from refsim.models.fem_assembly import Assembler
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.assembly import Assembler
+from refsim.models.fem.model import ElasticBody
 
 NEWTON_RTOL = 1e-12  # the solve's stop where the row's settings name none (`newton_rtol`)
 ROUNDING_TERMS = 64  # products summed into one nodal force (valence x element dofs) and the

@@ -45,7 +45,7 @@ import scipy.linalg
 from refsim.case import EPS, Case, Param, roundoff_tolerance, sample_steps
 from refsim.expected import discrete_solution
 from refsim.integrators.spec import spec_name
-from refsim.models.fem_meshes import rectangle_triangles
+from refsim.models.fem.meshes import rectangle_triangles
 from refsim.scene import Material, Scene, TriangleMesh
 
 from . import _linear

@@ -45,7 +45,7 @@ from functools import lru_cache
 import numpy as np
 
 from refsim.case import Param
-from refsim.models.fem_meshes import rectangle_triangles
+from refsim.models.fem.meshes import rectangle_triangles
 from refsim.scene import Material, Scene, TriangleMesh
 
 from . import _linear

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.case import Param
-from refsim.models.fem_meshes import box_tetrahedra, perturb_interior, rectangle_triangles
+from refsim.models.fem.meshes import box_tetrahedra, perturb_interior, rectangle_triangles
 from refsim.scene import Material, Scene, TetMesh, TriangleMesh
 from refsim.scene.meshes import STRAIN_MEASURES
 

@@ -1,4 +1,4 @@
-"""Plastic set (von Mises, refsim.models.fem_plasticity): one free regular tetrahedron (edge
+"""Plastic set (von Mises, refsim.models.fem.plasticity): one free regular tetrahedron (edge
 a = 1 m, rho = 1 kg/m^3, E = 1000 Pa, nu = 0.3, linear law, ideal plasticity sigma_y = 10 Pa)
 flung apart along x from its rest shape by the node velocities v_a = v0 N (X_a - c), N =
 diag(2, -1, -1) / sqrt(6) (an isochoric stretch along x, unit norm; c the centroid: no
@@ -38,7 +38,7 @@ the nodes; the column permanent_strain is e at the end read from the nodes.
 Bound: the named method's exact discrete solution of that reduced oscillator (`discrete`:
 each of the in-house engine's steppers written out here for the scalar e from its
 definition, the force -k s(e) with s = 2 mu (e - e_p) clamped to +-s_y by the radial return
-from the committed e_p, committed after each step, as refsim.models.fem_system does; the node
+from the committed e_p, committed after each step, as refsim.models.fem.system does; the node
 motion stays on the line F = I + e N for every method, each step being built of forces along
 it) against the closed form, max over the samples, times ||N (X - c)||_2, plus round-off
 (refsim.case.roundoff_tolerance). Steps omega dt = 0.04 (reference: 110 steps; sigma_y or E

@@ -1,5 +1,5 @@
 """Timoshenko's cantilever in plane stress (Timoshenko & Goodier, Theory of Elasticity, 3rd ed.
-1970, sec. 21; refsim.models.fem_cantilever): the beam [0, L] x [-D/2, D/2] of unit thickness,
+1970, sec. 21; refsim.models.fem.cantilever): the beam [0, L] x [-D/2, D/2] of unit thickness,
 L = 48, D = 12, E = 3e7, nu = 0.3 (linear law: the small-strain theory the exact field
 solves), the exact displacement imposed on the edge x = 0 (pinned nodes held there) and the
 parabolic shear traction of total P = 1000 on x = L as consistent nodal loads. The exact field
@@ -26,7 +26,7 @@ from functools import lru_cache
 import numpy as np
 
 from refsim.case import Param
-from refsim.models.fem_cantilever import Cantilever
+from refsim.models.fem.cantilever import Cantilever
 from refsim.scene import Material, Scene, TriangleMesh
 
 from . import _linear

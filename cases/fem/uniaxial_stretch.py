@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from refsim.case import Param
-from refsim.models.fem_meshes import rectangle_triangles
+from refsim.models.fem.meshes import rectangle_triangles
 from refsim.scene import Material, Scene, TriangleMesh
 
 from ._static import StaticCase

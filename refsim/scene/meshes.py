@@ -49,7 +49,7 @@ class Material:
     density (kg/m^3, > 0), the strain measure ("linear": Cauchy small strain 1/2 (F + F^T) - I;
     "green": Green-Lagrange, St Venant-Kirchhoff; "corotated": small strain in the rotated
     frame of F = R S; "neo_hookean": the stable Neo-Hookean energy of Smith et al. 2018; the
-    formulas are in refsim.models.fem_laws) and optional plasticity."""
+    formulas are in refsim.models.fem.laws) and optional plasticity."""
 
     youngs_modulus: float
     poisson_ratio: float

@@ -7,9 +7,9 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import eigsh
 
 from refsim.expected import discrete_solution
-from refsim.models.fem_assembly import Assembler
-from refsim.models.fem_meshes import rectangle_triangles
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.assembly import Assembler
+from refsim.models.fem.meshes import rectangle_triangles
+from refsim.models.fem.model import ElasticBody
 from refsim.registry import get_case
 from refsim.run.job import Job, run_job
 from refsim.scene import Material, TriangleMesh

@@ -3,9 +3,9 @@ and the bound tight enough to catch a wrong stiffness or the slides' printed nod
 import numpy as np
 import pytest
 
-from refsim.models.fem_elements import slide_printed_forces
-from refsim.models.fem_model import ElasticBody
-from refsim.models.fem_static import solve_static
+from refsim.models.fem.elements import slide_printed_forces
+from refsim.models.fem.model import ElasticBody
+from refsim.models.fem.static import solve_static
 from refsim.registry import get_case
 from refsim.run.job import Job, run_job
 from refsim.scene import Material, TriangleMesh

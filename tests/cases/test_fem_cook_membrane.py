@@ -4,8 +4,8 @@ variant within its bound and a stiffer panel caught."""
 import numpy as np
 import pytest
 
-from refsim.models.fem_model import ElasticBody
-from refsim.models.fem_static import solve_static
+from refsim.models.fem.model import ElasticBody
+from refsim.models.fem.static import solve_static
 from refsim.registry import get_case
 from refsim.run.job import Job, run_job
 from refsim.scene import Material, TriangleMesh

@@ -5,8 +5,8 @@ the permanent set meets the yield rule's closed form, and the bound catches sigm
 import numpy as np
 import pytest
 
-from refsim.models.fem_assembly import Assembler
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.assembly import Assembler
+from refsim.models.fem.model import ElasticBody
 from refsim.registry import get_case
 from refsim.run.job import Job, run_job
 

@@ -7,7 +7,7 @@ import pytest
 
 from refsim.case import EPS
 from refsim.expected import discrete_solution
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.model import ElasticBody
 from refsim.registry import get_case, get_engine
 from refsim.run.job import Job, run_job
 from refsim_cases.fem._static import ROUNDING_TERMS

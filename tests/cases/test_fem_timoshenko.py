@@ -5,9 +5,9 @@ clamped edge."""
 import numpy as np
 import pytest
 
-from refsim.models.fem_cantilever import error_norms
-from refsim.models.fem_model import ElasticBody
-from refsim.models.fem_static import solve_static
+from refsim.models.fem.cantilever import error_norms
+from refsim.models.fem.model import ElasticBody
+from refsim.models.fem.static import solve_static
 from refsim.registry import get_case
 from refsim.run.job import Job, run_job
 from refsim.scene import Material, TriangleMesh

@@ -1,4 +1,4 @@
-"""Tangent stiffness and mass matrices of the P1 elements (refsim.models.fem_assembly): dP/dF
+"""Tangent stiffness and mass matrices of the P1 elements (refsim.models.fem.assembly): dP/dF
 and K = -df/dx against central differences, the CSR pattern found once, masses against exact
 integrals."""
 import numpy as np
@@ -6,10 +6,10 @@ import pytest
 import scipy.sparse as sp
 from ulp import assert_ulp
 
-from refsim.models.fem_assembly import Assembler, BlockPattern, element_stiffness
-from refsim.models.fem_laws import LAW_NAMES, make_law
-from refsim.models.fem_meshes import box_tetrahedra, perturb_interior, rectangle_triangles
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.assembly import Assembler, BlockPattern, element_stiffness
+from refsim.models.fem.laws import LAW_NAMES, make_law
+from refsim.models.fem.meshes import box_tetrahedra, perturb_interior, rectangle_triangles
+from refsim.models.fem.model import ElasticBody
 from refsim.scene import Material, TetMesh, TriangleMesh
 
 E, NU, RHO = 1.0e3, 0.3, 800.0

@@ -1,15 +1,15 @@
 """P1 elements and their laws against closed forms: the patch test, rigid rotation, slide
 001's printed nodal force beside the correct one, and plane strain against a prism of
-tetrahedra (refsim.models.fem_elements, fem_laws, fem_model)."""
+tetrahedra (refsim.models.fem.elements, fem_laws, fem_model)."""
 import numpy as np
 import pytest
 from ulp import EPS, assert_ulp
 
-from refsim.models.fem_elements import Elements, slide_printed_forces
-from refsim.models.fem_laws import LAW_NAMES, make_law
-from refsim.models.fem_meshes import (box_tetrahedra, perturb_interior, prism_tetrahedra,
+from refsim.models.fem.elements import Elements, slide_printed_forces
+from refsim.models.fem.laws import LAW_NAMES, make_law
+from refsim.models.fem.meshes import (box_tetrahedra, perturb_interior, prism_tetrahedra,
                                       rectangle_triangles)
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.model import ElasticBody
 from refsim.scene import Material, TetMesh, TriangleMesh
 
 E, NU = 1.0e3, 0.3

@@ -1,13 +1,13 @@
 """The FEM laws against their closed forms: uniaxial stretch per law (nu = 0), forces as the
 negative energy gradient, the stable Neo-Hookean's rest state and parameters
-(refsim.models.fem_laws, fem_model)."""
+(refsim.models.fem.laws, fem_model)."""
 import numpy as np
 import pytest
 from ulp import assert_ulp
 
-from refsim.models.fem_laws import LAW_NAMES, make_law, neo_hookean_parameters
-from refsim.models.fem_meshes import box_tetrahedra, perturb_interior, rectangle_triangles
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.laws import LAW_NAMES, make_law, neo_hookean_parameters
+from refsim.models.fem.meshes import box_tetrahedra, perturb_interior, rectangle_triangles
+from refsim.models.fem.model import ElasticBody
 from refsim.scene import Material, TetMesh, TriangleMesh
 
 E = 1.0e3
@@ -113,7 +113,7 @@ def test_corotated_2d_closed_form_polar_is_the_rotation_variant_svd():
     included. Bounds: the SVD's backward error, taken as 8 eps |F| per entry (LAPACK's is a
     small multiple of eps |F|), for s; for R that error times the rotation's condition number
     2 / (s1 + s2) (a perturbation dF turns R by (dF - dF^T)_10 / tr S, Sifakis & Barbic)."""
-    from refsim.models.fem_laws import Corotated, rotation_variant_svd
+    from refsim.models.fem.laws import Corotated, rotation_variant_svd
     rng = np.random.default_rng(11)
     f = np.eye(2) + 0.6 * rng.standard_normal((400, 2, 2))
     f[:40, :, 0] *= -1.0  # inverted elements (det F < 0)

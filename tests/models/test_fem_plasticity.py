@@ -1,14 +1,14 @@
-"""Von Mises plasticity on the FEM strain measures (refsim.models.fem_plasticity): the permanent
+"""Von Mises plasticity on the FEM strain measures (refsim.models.fem.plasticity): the permanent
 strain of a uniaxial stretch past yield and unload against its closed form, and the energy
 balance of a yielding bar stepped in time (plastic strain stored per element)."""
 import numpy as np
 import pytest
 
 from refsim.integrators import get_integrator
-from refsim.models.fem_meshes import box_tetrahedra, rectangle_triangles
-from refsim.models.fem_model import ElasticBody
-from refsim.models.fem_static import solve_static
-from refsim.models.fem_system import FemSystem
+from refsim.models.fem.meshes import box_tetrahedra, rectangle_triangles
+from refsim.models.fem.model import ElasticBody
+from refsim.models.fem.static import solve_static
+from refsim.models.fem.system import FemSystem
 from refsim.scene import Material, Plasticity, TetMesh, TriangleMesh
 
 E, NU, YIELD = 1000.0, 0.3, 10.0  # yield strain 0.01

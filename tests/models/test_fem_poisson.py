@@ -1,4 +1,4 @@
-"""P1 Poisson on triangle meshes (refsim.models.fem_poisson): on right-triangle grids the
+"""P1 Poisson on triangle meshes (refsim.models.fem.poisson): on right-triangle grids the
 stiffness is the 5-point stencil and the lumped-load solution is the FDM exact discrete one;
 linear fields are reproduced on any mesh; the FDM model's solvers do the solving."""
 import math
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from ulp import assert_ulp
 
-from refsim.models.fem_meshes import perturb_interior, rectangle_triangles
-from refsim.models.fem_poisson import P1Poisson, solve
+from refsim.models.fem.meshes import perturb_interior, rectangle_triangles
+from refsim.models.fem.poisson import P1Poisson, solve
 from refsim.models.grid_laplacian import GridLaplacian
 from refsim.models.poisson_solvers import PoissonProblem, solve_problem
 

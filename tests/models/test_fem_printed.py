@@ -1,4 +1,4 @@
-"""Slide 001's printed nodal force as a body (refsim.models.fem_printed): its forces, its
+"""Slide 001's printed nodal force as a body (refsim.models.fem.printed): its forces, its
 Jacobian, and the in-house engine's `as_printed` formulation caught by the FEM cases."""
 from __future__ import annotations
 
@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from ulp import EPS, assert_ulp
 
-from refsim.models.fem_elements import slide_printed_forces
-from refsim.models.fem_meshes import box_tetrahedra, perturb_interior, rectangle_triangles
-from refsim.models.fem_model import ElasticBody
-from refsim.models.fem_printed import (FORMULATION, PrintedAssembler, PrintedForceBody,
+from refsim.models.fem.elements import slide_printed_forces
+from refsim.models.fem.meshes import box_tetrahedra, perturb_interior, rectangle_triangles
+from refsim.models.fem.model import ElasticBody
+from refsim.models.fem.printed import (FORMULATION, PrintedAssembler, PrintedForceBody,
                                        body_and_assembler)
-from refsim.models.fem_system import FemSystem
+from refsim.models.fem.system import FemSystem
 from refsim.run.job import Job, run_job
 from refsim.scene import Material, TetMesh, TriangleMesh
 

@@ -1,13 +1,13 @@
-"""Static Newton equilibria against closed forms (refsim.models.fem_static): uniaxial stretch
+"""Static Newton equilibria against closed forms (refsim.models.fem.static): uniaxial stretch
 per law, and the Timoshenko cantilever's tip deflection and convergence orders on P1."""
 import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from refsim.models.fem_cantilever import Cantilever, error_norms, triangle_rule
-from refsim.models.fem_meshes import rectangle_triangles
-from refsim.models.fem_model import ElasticBody
-from refsim.models.fem_static import StaticFailure, solve_static
+from refsim.models.fem.cantilever import Cantilever, error_norms, triangle_rule
+from refsim.models.fem.meshes import rectangle_triangles
+from refsim.models.fem.model import ElasticBody
+from refsim.models.fem.static import StaticFailure, solve_static
 from refsim.scene import Material, TriangleMesh
 
 E, THICK, FORCE = 1000.0, 0.1, 10.0

@@ -1,4 +1,4 @@
-"""The FEM mesh as a system for the steppers (refsim.models.fem_system): accelerations and
+"""The FEM mesh as a system for the steppers (refsim.models.fem.system): accelerations and
 Jacobians consistent with the energy, velocity Verlet's energy within its modal bound,
 implicit Euler and Baraff-Witkin (sparse path) on their exact discrete energy decay."""
 import numpy as np
@@ -8,8 +8,8 @@ from ulp import assert_ulp
 
 from refsim.integrators import get_integrator
 from refsim.integrators.implicit import SPARSE_MIN
-from refsim.models.fem_meshes import box_tetrahedra, rectangle_triangles
-from refsim.models.fem_system import FemSystem
+from refsim.models.fem.meshes import box_tetrahedra, rectangle_triangles
+from refsim.models.fem.system import FemSystem
 from refsim.scene import Material, TetMesh, TriangleMesh
 
 

@@ -3,7 +3,7 @@ loads) and TetMesh (orientation), each bad value refused by name in one line."""
 import numpy as np
 import pytest
 
-from refsim.models.fem_meshes import box_tetrahedra, rectangle_triangles
+from refsim.models.fem.meshes import box_tetrahedra, rectangle_triangles
 from refsim.scene import (PLANE_MODES, STRAIN_MEASURES, Material, Plasticity, Scene, TetMesh,
                           TriangleMesh)
 from refsim.scene.meshes import mesh_plane

@@ -6,7 +6,7 @@ loads and gravity.
 Two ways to run it, chosen by the scene: `scene.meta["solve"] == "static"` (the case compares
 the equilibrium) offers only
 - "steady": no time stepping; one `step()` is one complete static Newton solve
-  (refsim.models.fem_static: SuperLU on the free dofs, stopping at NEWTON_RTOL of the force
+  (refsim.models.fem.static: SuperLU on the free dofs, stopping at NEWTON_RTOL of the force
   scale or at the positions' round-off) from the mesh's initial positions, so a timing pass of
   fresh Sims times the whole solve (assembly pattern included). The equilibrium is what is
   observed after the first step; before it, the initial positions.
@@ -16,7 +16,7 @@ and any other scene only
   A plastic material commits its plastic strain after every accepted step.
 
 Formulations: "" the correct nodal forces; "as_printed" slide 001's printed nodal force
-f_i = Q sigma n_i (unit normals, no face weight: refsim.models.fem_printed says what it does),
+f_i = Q sigma n_i (unit normals, no face weight: refsim.models.fem.printed says what it does),
 run beside it so that the harness shows the slip, in both ways of running.
 
 Observes x, v (n, 3) of every node (pinned ones included), and for "steady" `residual` (max
@@ -30,9 +30,9 @@ import numpy as np
 from refsim.engine import ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.spec import spec_name
-from refsim.models import fem_printed
-from refsim.models.fem_static import solve_static
-from refsim.models.fem_system import FemSystem
+from refsim.models.fem import printed as fem_printed
+from refsim.models.fem.static import solve_static
+from refsim.models.fem.system import FemSystem
 from refsim.scene import single_mesh
 
 from ..stepped import SteppedSim

@@ -1,6 +1,6 @@
 """taichi's finite-element group (slides 001 and 000; issue 26): one P1 mesh part
 (`TriangleMesh` in plane stress or plane strain, or `TetMesh`) of one material, the four laws
-of refsim.models.fem_laws (linear = Cauchy as printed, green = StVK, corotated, neo_hookean =
+of refsim.models.fem.laws (linear = Cauchy as printed, green = StVK, corotated, neo_hookean =
 Smith et al. 2018) as float64 kernels (`fem_kernels`, `fem_stress`): F = Ds Dm^-1, the first
 Piola stress, f = -V P Dm^-T scattered into the nodes, lumped masses rho V / (d + 1) per
 element node (refsim's FemSystem's), constant nodal loads and gravity; pinned nodes held at
@@ -35,7 +35,7 @@ import numpy as np
 from refsim.engine import EngineFailure, ModelGroup, Sim
 from refsim.integrators import get_integrator
 from refsim.integrators.spec import spec_name
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.model import ElasticBody
 from refsim.scene import single_mesh
 
 from ..kernel_store import arrays_setting, to_taichi
@@ -264,7 +264,7 @@ class FemStaticSim(Sim):
         return np.asarray(self.solver.solve(rhs), dtype=np.float64)
 
     def _newton(self):
-        """refsim.models.fem_static's Newton loop, with the kernels' forces and tangent."""
+        """refsim.models.fem.static's Newton loop, with the kernels' forces and tangent."""
         x, free, linear = self.x0.copy(), self.free_dofs, self.data.law["name"] == "linear"
         for iteration in range(MAX_ITER + 1):
             f_int = self.data.forces(x)

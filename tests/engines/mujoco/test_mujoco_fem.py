@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from refsim.engine import jsonable
-from refsim.models.fem_meshes import box_tetrahedra, rectangle_triangles
+from refsim.models.fem.meshes import box_tetrahedra, rectangle_triangles
 from refsim.registry import get_case, get_engine
 from refsim.run.job import Job, run_job
 from refsim.scene import Material, Plasticity, Scene, TetMesh, TriangleMesh

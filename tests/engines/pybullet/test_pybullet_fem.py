@@ -20,8 +20,8 @@ from refsim_adapters.pybullet_engine.softbody import node_positions
 from refsim_adapters.pybullet_engine.fem_vtk import write_vtk
 from refsim_adapters.pybullet_engine.runtime import c_stdout_silenced
 from refsim_cases.fem._static import ROUNDING_TERMS, free_stiffness_extremes
-from refsim.models.fem_meshes import box_tetrahedra, rectangle_triangles
-from refsim.models.fem_model import ElasticBody
+from refsim.models.fem.meshes import box_tetrahedra, rectangle_triangles
+from refsim.models.fem.model import ElasticBody
 from refsim.registry import get_case, get_engine
 from refsim.scene import Material, Plasticity, Scene, TetMesh, TriangleMesh
 

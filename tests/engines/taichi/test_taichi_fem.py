@@ -32,10 +32,10 @@ import pytest
 
 from refsim import registry
 from refsim.engine import jsonable
-from refsim.models.fem_laws import rotation_variant_svd
-from refsim.models.fem_meshes import box_tetrahedra, perturb_interior, rectangle_triangles
-from refsim.models.fem_model import ElasticBody
-from refsim.models.fem_system import FemSystem
+from refsim.models.fem.laws import rotation_variant_svd
+from refsim.models.fem.meshes import box_tetrahedra, perturb_interior, rectangle_triangles
+from refsim.models.fem.model import ElasticBody
+from refsim.models.fem.system import FemSystem
 from refsim.scene import Material, Plasticity, Scene, TetMesh, TriangleMesh
 
 pytest.importorskip("taichi")

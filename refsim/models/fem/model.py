@@ -1,19 +1,19 @@
-"""An elastic body of P1 elements: the mesh part's elements (refsim.models.fem_elements) with
-its material's law (refsim.models.fem_laws), in the body's own coordinates.
+"""An elastic body of P1 elements: the mesh part's elements (refsim.models.fem.elements) with
+its material's law (refsim.models.fem.laws), in the body's own coordinates.
 
 Triangles live in their plane: local coordinates are X @ basis.T (basis of
 refsim.scene.meshes.mesh_plane: the x-y axes for a mesh in a z = const plane, so the local
 coordinates are the world's x, y exactly), d = 2; tetrahedra use world coordinates, d = 3.
 Energies in J, forces in N, node positions x (n, d) in m. A material with plasticity gets the
-von Mises law of refsim.models.fem_plasticity around its elastic law; `commit(x)` stores the
+von Mises law of refsim.models.fem.plasticity around its elastic law; `commit(x)` stores the
 plastic strain reached at x.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .fem_elements import Elements
-from .fem_laws import Law, law_of
+from .elements import Elements
+from .laws import Law, law_of
 
 
 class ElasticBody:
@@ -39,7 +39,7 @@ class ElasticBody:
         else:
             elements, law = Elements(mesh.vertices, mesh.tetrahedra), law_of(mesh.material, 3)
         if mesh.material.plasticity is not None:
-            from .fem_plasticity import VonMises
+            from .plasticity import VonMises
             law = VonMises(law, mesh.material.plasticity, elements.m)
         return cls(elements, law, basis, offset)
 

@@ -3,7 +3,7 @@ dofs, the fixed dofs held at prescribed positions (pinned nodes, or an imposed b
 field).
 
 Each iteration solves K_ff dx_f = f_int(x)_f + f_ext,f with the tangent K = -df/dx
-(refsim.models.fem_assembly, pattern found once) by scipy.sparse.linalg.spsolve (SuperLU), and
+(refsim.models.fem.assembly, pattern found once) by scipy.sparse.linalg.spsolve (SuperLU), and
 stops when max |residual_f| <= rtol x the force scale (the largest of |f_ext| and the internal
 forces, reactions included), or when the update is below the positions' round-off
 (max |dx| <= 16 eps max |x|: forces computed from positions carry eps |x| / h relative
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse.linalg import spsolve
 
-from .fem_assembly import Assembler
+from .assembly import Assembler
 
 
 ROUND_OFF = 16 * np.finfo(float).eps  # an update below this x max |x| moves nothing

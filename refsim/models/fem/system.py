@@ -5,14 +5,14 @@ refsim.integrators: accel, dense `jacobians` (small meshes) and `sparse_force_ja
 The state holds the FREE nodes' world positions and velocities, flat (3 n_free,); pinned nodes
 stay at the mesh's `positions` (its rest vertices unless an imposed displacement moves them) with zero velocity (`full_positions` puts them back), as in
 refsim.models.spring_network. Forces on the free nodes (N):
-- elastic: f = -dU/dx of the ElasticBody (refsim.models.fem_model); a triangle mesh's forces
+- elastic: f = -dU/dx of the ElasticBody (refsim.models.fem.model); a triangle mesh's forces
   lie in its plane (no stiffness normal to it: gravity and loads must lie in the plane);
 - the mesh's constant nodal loads, and gravity m g with the lumped masses m = rho V / (d + 1)
-  per element node (refsim.models.fem_assembly);
+  per element node (refsim.models.fem.assembly);
 - optional Rayleigh damping f = -(alpha M + beta K(x)) v, alpha in 1/s, beta in s, with the
   lumped M and the tangent stiffness at the current positions (its x-derivative is left out
   of the Jacobians, as Baraff & Witkin leave out the damping direction's).
-Plasticity (refsim.models.fem_plasticity): the stress is the return from the committed plastic
+Plasticity (refsim.models.fem.plasticity): the stress is the return from the committed plastic
 strain, stored per element in the system (`plastic_strain`) and updated by `commit(x)` after
 an accepted step (`advance` steps and commits; the steppers themselves have no post-step hook).
 Jacobians: df/dx = -K (the tangent, in world dofs: T^T K T with T the plane basis per node for
@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .fem_printed import body_and_assembler
+from .printed import body_and_assembler
 
 
 def _world_map(body, n):
@@ -35,7 +35,7 @@ def _world_map(body, n):
 
 class FemSystem:
     """One FEM mesh under gravity, its nodal loads and optional Rayleigh damping; `formulation`
-    "as_printed" takes slide 001's printed nodal force (refsim.models.fem_printed)."""
+    "as_printed" takes slide 001's printed nodal force (refsim.models.fem.printed)."""
 
     def __init__(self, mesh, gravity=(0.0, 0.0, 0.0), rayleigh=(0.0, 0.0), formulation=""):
         self.mesh = mesh

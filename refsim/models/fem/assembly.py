@@ -5,7 +5,7 @@ refsim.models.spring_jacobians does for springs.
 Element matrices (Sifakis & Barbic 2012, sec. 4.3; Bonet & Wood ch. 7), dofs node-major
 (node a, component i -> a d + i):
 - tangent stiffness K = -df/dx: K_e[(a, i), (b, k)] = V sum_jl grad phi_a,j C_ijkl grad phi_b,l
-  with C = dP/dF of the law (closed form, refsim.models.fem_laws); symmetric;
+  with C = dP/dF of the law (closed form, refsim.models.fem.laws); symmetric;
 - consistent mass M_e[(a, i), (b, k)] = rho V (1 + delta_ab) / ((d + 1)(d + 2)) delta_ik;
 - lumped mass: rho V / (d + 1) to each node of an element (the row sums of the consistent one).
 """

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fem_meshes import rectangle_triangles
+from .meshes import rectangle_triangles
 
 
 @dataclass(frozen=True)

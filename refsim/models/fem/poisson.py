@@ -4,7 +4,7 @@ model, docs/models.md#fdm-laplacian-and-poisson), solved by the FDM model's solv
 
 Weak form: find u_h = sum_j u_j phi_j with sum_j k_ij u_j = -int f phi_i for every free node
 i, where k_ij = int grad phi_j . grad phi_i (the stiffness; per triangle of area A,
-A grad phi_a . grad phi_b, assembled on a pattern found once: refsim.models.fem_assembly)
+A grad phi_a . grad phi_b, assembled on a pattern found once: refsim.models.fem.assembly)
 and the load is lumped: int f phi_i ~ f_i A_i, A_i = sum of A / 3 over the triangles at node i
 (the consistent load int f phi_i = sum_j M_ij f_j is `consistent_load`). Slide 000's
 integration by parts has a sign slip; the weak form it ends on is the one above.
@@ -25,9 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fem_assembly import BlockPattern
-from .fem_elements import Elements
-from .poisson_solvers import solve_problem
+from .assembly import BlockPattern
+from .elements import Elements
+from ..poisson_solvers import solve_problem
 
 METHODS = ("direct", "cg", "pyamg")
 

@@ -16,14 +16,14 @@ the printed force of each element node is the correct one divided by w_i, and:
 - it is not the gradient of any energy: the Jacobian below is not symmetric, and the elastic
   energy the body reports is the correct law's (what the printed forces do not conserve).
 Jacobian: the correct element block (-df/dx = V G^T C G) with node i's rows divided by w_i,
-assembled on the same pattern (refsim.models.fem_assembly).
+assembled on the same pattern (refsim.models.fem.assembly).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .fem_assembly import Assembler, element_stiffness
-from .fem_model import ElasticBody
+from .assembly import Assembler, element_stiffness
+from .model import ElasticBody
 
 FORMULATION = "as_printed"
 DESCRIPTION = ("slide 001's nodal force f_i = Q sigma n_i as printed: unit face normals, without "

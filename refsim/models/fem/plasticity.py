@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fem_laws import PlaneStrain, rotation_variant_svd
+from .laws import PlaneStrain, rotation_variant_svd
 
 ROOT_2_3 = np.sqrt(2.0 / 3.0)
 
