@@ -4,7 +4,9 @@
 list of every name: the part it belongs to, its shape, units and meaning, and whether an engine
 must report it. Shape symbols: n = bodies of the moving part, k = joints, f = fluid particles
 (`FluidBlock.particle_count`), N = nodes of all networks (or all meshes) together, in the
-order the scene lists them; "grid.shape" = the shape of the grid holding the field.
+order the scene lists them; "grid.shape" = the shape of the grid holding the field; nx, ny =
+the cells of a `FluidGrid` (MAC grid: u on the vertical faces, v on the horizontal ones, p at
+the cell centres).
 
 The moving-kind rule: "x" and "v" (and "w") belong to the scene's one kind of moving bodies,
 `Scene.moving_kind()`: particles, the SPH fluid, rigid bodies, spring-network nodes or mesh
@@ -21,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from refsim.scene import (MOVING_KINDS, FluidBlock, Grid, Joints, Particles, RigidBodies,
-                          SpringNetwork, TetMesh, TriangleMesh)
+from refsim.scene import (MOVING_KINDS, FluidBlock, FluidGrid, Grid, Joints, Particles,
+                          RigidBodies, SpringNetwork, TetMesh, TriangleMesh)
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,12 @@ OBSERVABLES: tuple[Observable, ...] = (
     Observable("v", "meshes", "(N, 3)", "m/s", "mesh node velocities"),
     Observable("grid.<field>", "grids", "grid.shape", "the field's", "each grid field by "
                "name, at the grid points"),
+    Observable("grid.u", "fluid_grids", "(nx + 1, ny)", "m/s", "x-velocity on the MAC grid's "
+               "vertical faces, at (i h, (j + 1/2) h)"),
+    Observable("grid.v", "fluid_grids", "(nx, ny + 1)", "m/s", "y-velocity on the MAC grid's "
+               "horizontal faces, at ((i + 1/2) h, j h)"),
+    Observable("grid.p", "fluid_grids", "(nx, ny)", "m^2/s^2", "kinematic pressure p / rho "
+               "of the last projection at the cell centres (0 before any step)"),
 )
 
 
@@ -78,15 +86,18 @@ def _counts(scene) -> dict[str, int]:
     meshes = sum(len(m) for m in scene.parts_of(TriangleMesh) + scene.parts_of(TetMesh))
     rigid, particles = scene.part(RigidBodies), scene.part(Particles)
     joints, fluid = scene.part(Joints), scene.part(FluidBlock)
+    mac = scene.part(FluidGrid)
     return {"n": len(rigid) if rigid is not None else len(particles or ()),
             "k": len(joints or ()),
             "f": fluid.particle_count if fluid is not None else 0,
-            "N": networks or meshes}
+            "N": networks or meshes,
+            "nx": mac.nx if mac is not None else 0, "ny": mac.ny if mac is not None else 0}
 
 
 def _shape(text: str, counts: dict[str, int]) -> tuple[int, ...]:
     dims = [d.strip() for d in text.strip("()").split(",") if d.strip()]
-    return tuple(counts[d] if d in counts else int(d) for d in dims)
+    return tuple(sum(counts[t] if t in counts else int(t) for t in map(str.strip, d.split("+")))
+                 for d in dims)
 
 
 def expected(scene) -> dict[str, tuple[tuple[int, ...], bool]]:
@@ -99,6 +110,8 @@ def expected(scene) -> dict[str, tuple[tuple[int, ...], bool]]:
         if o.part == "grids":
             out.update({f"grid.{name}": (g.shape, True) for g in scene.parts_of(Grid)
                         for name in g.fields})
+            continue
+        if o.part == "fluid_grids" and o.part not in kinds:
             continue
         required = o.required and (o.part == "scene" or o.part in kinds)
         out[o.name] = (_shape(o.shape, counts), required)

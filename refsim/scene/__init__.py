@@ -7,11 +7,13 @@ parts store read-only numpy arrays, built once.
 
 Modules: particles (Body, Particles), springs (Spring, Springs), joints (Joint, Joints), walls
 (Wall, Walls, ContactModel), fluid (FluidBlock, SPH), rigid (RigidBodies), networks
-(SpringNetwork), meshes (Material, Plasticity, TriangleMesh, TetMesh), grids (Grid), scene
-(Scene, PART_KINDS, MOVING_KINDS); _validate holds the shared checks.
+(SpringNetwork), meshes (Material, Plasticity, TriangleMesh, TetMesh), grids (Grid), fluid_grid
+(FluidGrid: a fluid on a MAC grid), scene (Scene, PART_KINDS, MOVING_KINDS); _validate holds
+the shared checks.
 """
 from ._validate import Vec
 from .fluid import FluidBlock
+from .fluid_grid import FluidGrid
 from .grids import BOUNDARY_KINDS, Grid
 from .joints import JOINT_KINDS, Joint, Joints
 from .meshes import (PLANE_MODES, STRAIN_MEASURES, Material, Plasticity, TetMesh, TriangleMesh,
@@ -23,8 +25,8 @@ from .scene import MOVING_KINDS, PART_KINDS, Scene
 from .springs import Spring, Springs
 from .walls import ContactModel, Wall, Walls
 
-__all__ = ["BOUNDARY_KINDS", "Body", "ContactModel", "FluidBlock", "Grid", "JOINT_KINDS",
-           "Joint", "Joints", "MOVING_KINDS", "Material", "PART_KINDS", "PLANE_MODES",
-           "Particles", "Plasticity", "RigidBodies", "STRAIN_MEASURES", "Scene", "Spring",
-           "SpringNetwork", "Springs", "TetMesh", "TriangleMesh", "Vec", "Wall", "Walls",
-           "single_mesh"]
+__all__ = ["BOUNDARY_KINDS", "Body", "ContactModel", "FluidBlock", "FluidGrid", "Grid",
+           "JOINT_KINDS", "Joint", "Joints", "MOVING_KINDS", "Material", "PART_KINDS",
+           "PLANE_MODES", "Particles", "Plasticity", "RigidBodies", "STRAIN_MEASURES", "Scene",
+           "Spring", "SpringNetwork", "Springs", "TetMesh", "TriangleMesh", "Vec", "Wall",
+           "Walls", "single_mesh"]

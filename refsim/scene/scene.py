@@ -39,7 +39,7 @@ from .springs import Springs
 from .walls import ContactModel, Walls
 
 PART_KINDS = ("particles", "springs", "joints", "walls", "fluid", "rigid", "networks",
-              "meshes", "grids")
+              "meshes", "grids", "fluid_grids")
 MOVING_KINDS = ("particles", "fluid", "rigid", "networks", "meshes")
 # parts that only act on bodies held by other parts: a scene of these alone has nothing to move
 _ATTACHED_KINDS = ("springs", "joints", "walls")

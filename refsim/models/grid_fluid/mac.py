@@ -1,0 +1,215 @@
+"""MAC-grid operators: divergence, gradient, face <-> cell averages, and fields sampled at
+arbitrary points (bilinear here; the advection's interpolants use the same ghost layers).
+
+Layout (refsim.models.grid_fluid): u (nx + 1, ny) at (i h, (j + 1/2) h), v (nx, ny + 1) at
+((i + 1/2) h, j h), cell quantities (nx, ny) at ((i + 1/2) h, (j + 1/2) h). A periodic axis
+stores its last face equal to its first.
+
+Ghost layers (`padded`): every array is extended by GHOST = 2 entries on each side of each
+axis, so that a 4-point (cubic) stencil never leaves it:
+- periodic axis: the n distinct entries wrapped (a staggered axis drops its duplicate last
+  face first);
+- wall, staggered axis (the component normal to the wall, its wall faces on the array's
+  ends): odd reflection about the end face, ghost[-k] = 2 a[0] - a[k] (a[0] = 0: the normal
+  velocity changes sign through the wall);
+- wall, centred axis (the wall half a cell outside the first entry): "noslip" reflects about
+  the wall's value w, ghost[-1 - k] = 2 w - a[k] (the linear interpolant then gives w on the
+  wall: the tangential velocity of the wall, 0 or the lid), "even" mirrors,
+  ghost[-1 - k] = a[k] (zero normal gradient, for cell scalars).
+Points are clamped into the domain [0, nx h] x [0, ny h] along wall axes and wrapped along
+periodic ones before interpolation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+GHOST = 2
+
+
+@dataclass(frozen=True)
+class MacGrid:
+    """The geometry: nx x ny cells of side h, per axis periodic (True) or walls (False), and
+    the tangential velocity of the top wall (lid)."""
+
+    nx: int
+    ny: int
+    h: float
+    periodic: tuple[bool, bool] = (False, False)
+    lid: float = 0.0
+
+    @classmethod
+    def of(cls, part) -> "MacGrid":
+        """From a `FluidGrid` scene part."""
+        return cls(part.nx, part.ny, part.h, tuple(s == "periodic" for s in part.sides),
+                   part.lid)
+
+    @property
+    def cells(self) -> tuple[int, int]:
+        return (self.nx, self.ny)
+
+    def u_points(self) -> np.ndarray:
+        """(nx + 1, ny, 2) positions of the u faces."""
+        return _points(np.arange(self.nx + 1) * self.h, (np.arange(self.ny) + 0.5) * self.h)
+
+    def v_points(self) -> np.ndarray:
+        """(nx, ny + 1, 2) positions of the v faces."""
+        return _points((np.arange(self.nx) + 0.5) * self.h, np.arange(self.ny + 1) * self.h)
+
+    def cell_points(self) -> np.ndarray:
+        """(nx, ny, 2) cell centres."""
+        return _points((np.arange(self.nx) + 0.5) * self.h, (np.arange(self.ny) + 0.5) * self.h)
+
+
+def _points(x, y) -> np.ndarray:
+    xx, yy = np.meshgrid(x, y, indexing="ij")
+    return np.stack([xx, yy], axis=-1)
+
+
+# -- operators ---------------------------------------------------------------------------------
+def divergence(u, v, h) -> np.ndarray:
+    """D u = (u[i+1, j] - u[i, j] + v[i, j+1] - v[i, j]) / h per cell, shape (nx, ny)."""
+    return (np.diff(u, axis=0) + np.diff(v, axis=1)) / h
+
+
+def gradient(p, grid: MacGrid) -> tuple[np.ndarray, np.ndarray]:
+    """G p on the faces: (p[i] - p[i-1]) / h on interior faces, across the seam on a periodic
+    axis (face 0 from p[nx-1] to p[0], the last face equal to the first), 0 on wall faces."""
+    return _face_difference(p, 0, grid.periodic[0], grid.h), \
+        _face_difference(p, 1, grid.periodic[1], grid.h)
+
+
+def _face_difference(p, axis, periodic, h):
+    n = p.shape[axis]
+    shape = list(p.shape)
+    shape[axis] = n + 1
+    out = np.zeros(shape)
+    inner = [slice(None)] * 2
+    inner[axis] = slice(1, n)
+    out[tuple(inner)] = np.diff(p, axis=axis) / h
+    if periodic:
+        seam = (np.take(p, 0, axis=axis) - np.take(p, n - 1, axis=axis)) / h
+        first, last = [slice(None)] * 2, [slice(None)] * 2
+        first[axis], last[axis] = 0, n
+        out[tuple(first)] = seam
+        out[tuple(last)] = seam
+    return out
+
+
+def faces_to_cells(u, v) -> tuple[np.ndarray, np.ndarray]:
+    """The velocity at the cell centres: the mean of each cell's two faces per component."""
+    return 0.5 * (u[1:] + u[:-1]), 0.5 * (v[:, 1:] + v[:, :-1])
+
+
+def cells_to_faces(q, grid: MacGrid) -> tuple[np.ndarray, np.ndarray]:
+    """A cell quantity at the faces: the mean of the two cells beside each face; across the
+    seam on a periodic axis; on a wall face the one cell inside."""
+    return _face_mean(q, 0, grid.periodic[0]), _face_mean(q, 1, grid.periodic[1])
+
+
+def _face_mean(q, axis, periodic):
+    first, last = np.take(q, [0], axis=axis), np.take(q, [-1], axis=axis)
+    inner = 0.5 * (np.take(q, range(1, q.shape[axis]), axis=axis)
+                   + np.take(q, range(q.shape[axis] - 1), axis=axis))
+    if periodic:
+        seam = 0.5 * (first + last)
+        return np.concatenate([seam, inner, seam], axis=axis)
+    return np.concatenate([first, inner, last], axis=axis)
+
+
+def enforce_boundaries(u, v, grid: MacGrid) -> None:
+    """In place: wall faces 0 (no through-flow), a periodic axis' last faces = its first."""
+    for arr, axis in ((u, 0), (v, 1)):
+        last = [slice(None)] * 2
+        last[axis] = -1
+        first = [slice(None)] * 2
+        first[axis] = 0
+        if grid.periodic[axis]:
+            arr[tuple(last)] = arr[tuple(first)]
+        else:
+            arr[tuple(first)] = 0.0
+            arr[tuple(last)] = 0.0
+
+
+# -- ghost layers and sampling -----------------------------------------------------------------
+LOCATIONS = {"u": (True, False), "v": (False, True), "cell": (False, False)}  # staggered per axis
+
+
+def _pad_axis(a, axis, periodic, staggered, wall, low, high):
+    n = a.shape[axis] - (1 if staggered else 0)
+    take = lambda idx: np.take(a, idx, axis=axis)  # noqa: E731
+    if periodic:
+        core = take(np.arange(n))
+        return np.concatenate([np.take(core, [n - 2, n - 1], axis=axis), core,
+                               np.take(core, [0, 1], axis=axis)], axis=axis)
+    if staggered:  # odd about the end faces
+        return np.concatenate([2 * take([0]) - take([2, 1]), a,
+                               2 * take([n]) - take([n - 1, n - 2])], axis=axis)
+    if wall == "even":
+        return np.concatenate([take([1, 0]), a, take([n - 1, n - 2])], axis=axis)
+    return np.concatenate([2 * low - take([1, 0]), a, 2 * high - take([n - 1, n - 2])],
+                          axis=axis)
+
+
+def wall_values(location: str, grid: MacGrid) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(low, high) wall value per axis of a no-slip ghost: u's at y = 0 is 0 and at the top the
+    lid's speed; every other tangential wall value is 0."""
+    return ((0.0, 0.0), (0.0, grid.lid if location == "u" else 0.0))
+
+
+def padded(a, location: str, grid: MacGrid, wall: str = "noslip") -> np.ndarray:
+    """`a` (of `location` "u", "v" or "cell") with GHOST ghost entries per side and axis."""
+    staggered = LOCATIONS[location]
+    values = wall_values(location, grid)
+    out = np.asarray(a, float)
+    for axis in (0, 1):
+        out = _pad_axis(out, axis, grid.periodic[axis], staggered[axis], wall, *values[axis])
+    return out
+
+
+def index_coordinates(points, location: str, grid: MacGrid) -> tuple[np.ndarray, np.ndarray]:
+    """Fractional indices into the padded array of `location` of points (..., 2): wrapped on
+    periodic axes, clamped into the domain on wall axes."""
+    staggered = LOCATIONS[location]
+    out = []
+    for axis, n in enumerate(grid.cells):
+        q = points[..., axis] / grid.h - (0.0 if staggered[axis] else 0.5)
+        if grid.periodic[axis]:
+            q = np.mod(q, n)
+        else:
+            low = 0.0 if staggered[axis] else -0.5
+            q = np.clip(q, low, low + n)
+        out.append(q + GHOST)
+    return out[0], out[1]
+
+
+def bilinear(pad, qx, qy) -> np.ndarray:
+    """The bilinear interpolant of a padded array at fractional indices (qx, qy)."""
+    i = np.clip(np.floor(qx).astype(np.intp), 0, pad.shape[0] - 2)
+    j = np.clip(np.floor(qy).astype(np.intp), 0, pad.shape[1] - 2)
+    tx, ty = qx - i, qy - j
+    return ((1 - tx) * ((1 - ty) * pad[i, j] + ty * pad[i, j + 1])
+            + tx * ((1 - ty) * pad[i + 1, j] + ty * pad[i + 1, j + 1]))
+
+
+def sample(a, location: str, points, grid: MacGrid, wall: str = "noslip") -> np.ndarray:
+    """`a` (of `location`) bilinearly interpolated at points (..., 2)."""
+    return bilinear(padded(a, location, grid, wall), *index_coordinates(points, location, grid))
+
+
+def velocity_at(u, v, points, grid: MacGrid) -> np.ndarray:
+    """(..., 2) the velocity at points (..., 2) by bilinear interpolation of each face array
+    (no-slip ghosts at walls, the lid's speed at the top)."""
+    return np.stack([sample(u, "u", points, grid), sample(v, "v", points, grid)], axis=-1)
+
+
+def velocity_sampler(u, v, grid: MacGrid):
+    """points -> velocity_at(u, v, points) with the ghost layers built once (for the several
+    evaluations of one backtrace)."""
+    pu, pv = padded(u, "u", grid), padded(v, "v", grid)
+
+    def at(points):
+        return np.stack([bilinear(pu, *index_coordinates(points, "u", grid)),
+                         bilinear(pv, *index_coordinates(points, "v", grid))], axis=-1)
+    return at
