@@ -33,6 +33,22 @@ h' = 2 mu (2 H / 3) / (2 mu + 2 H / 3), so the plastic phase is a slower oscilla
 e = e_y - (s_y / h')(1 - cos omega_p tau) + (w / omega_p) sin omega_p tau, omega_p^2 = k h',
 to its turning point tan(omega_p tau_max) = w h' / (s_y omega_p); e_p = 2 mu (e_max - e_y) /
 (2 mu + 2 H / 3) (0.0229), and the unloading cosine's amplitude is e_max - e_p.
+Variant green (StVK, ideal, the tetrahedron; MuJoCo's flex law): F leaves the line I + e N
+(E = e N + e^2 N^2 / 2 has an isotropic part, tr E = e^2 / 2), but stays diagonal with
+F_yy = F_zz (the law is isotropic, B = (2 / a^2) I, the data symmetric): the stretches
+l = diag F obey l'' = -k l S, S = lam tr(E_e) I + 2 mu E_e, E_e = E - E_p, E = (l^2 - 1) / 2,
+with refsim's return (dev E stays along N, so the flow is radial along N and E_p = dev E -
+e_y N while flowing). No closed form: the reference is a converged solve of those three
+stretches (cases/fem/_plastic_green.py: DOP853, rtol 1e-13, to yield, to the turning point
+n . l l' = 0, then elastic; energy balanced to 6e-13), t_end its turning point plus the linear
+quarter period (stress near zero, far from reverse yield); e_p . N = 0.03182 (linear 0.03184).
+Bound: each in-house stepper's exact discrete solution of the three stretches (the same
+return, committed after each step; backward Euler by Newton with the elastic tangent, Baraff-
+Witkin with it), the node error's max over the samples, plus round-off. sigma_y or E 0.1 %
+off is 1.7-4.2x Verlet's bound and 38-52x RK4's. MuJoCo's flex `yield` (eps_y = sigma_y /
+(3 mu)) has the same yield surface and deviatoric return but keeps det(I + 2 E_p) = 1
+(tr E_p = 1.0e-3 here against refsim's 0) and no return inside RK4's stages: its rows are
+inconsistent by that (adapters/mujoco_engine/fem_yield.py).
 Observable: the four nodes' positions x = c + (I + e(t) N)(X - c) (m), error the 2-norm over
 the nodes; the column permanent_strain is e at the end read from the nodes.
 Bound: the named method's exact discrete solution of that reduced oscillator (`discrete`:
@@ -54,8 +70,8 @@ from refsim.case import Case, Param, roundoff_tolerance, sample_steps
 from refsim.integrators.spec import spec_name
 from refsim.scene import Material, Plasticity, Scene, TetMesh, TriangleMesh
 
+from ._plastic_green import DIRECTION, GreenTet, march
 
-DIRECTION = np.diag([2.0, -1.0, -1.0]) / np.sqrt(6.0)
 PLANE_DIRECTION = np.diag([1.0, -1.0, 0.0]) / np.sqrt(2.0)  # in plane strain: eps_zz = 0
 Y_SWEEP = (0.04, 0.02)  # omega dt
 Y_REFERENCE = 0.04
@@ -80,6 +96,9 @@ class PlasticSet(Case):
         "poisson_ratio": Param(0.3, -0.99, 0.49, "nu"),
         "yield_stress": Param(10.0, 0.0, 1e12, "sigma_y (Pa)", low_inclusive=False),
         "hardening": Param(0.0, 0.0, 1e12, "H (Pa), linear isotropic hardening (0: ideal)"),
+        "strain": Param("linear", choices=("linear", "green"),
+                        doc="the law: linear (the closed form) or green (StVK, ideal, on the "
+                            "tetrahedron: the reduced 3-stretch solve)"),
         "element": Param("tetrahedron", choices=("tetrahedron", "triangle")),
         "density": Param(1.0, 1e-6, 1e6, "rho (kg/m^3)", low_inclusive=False),
         "edge": Param(1.0, 1e-3, 1e3, "a (m)", low_inclusive=False),
@@ -89,7 +108,7 @@ class PlasticSet(Case):
                           doc="the reference dt alone (the default run's cost) or the sweep"),
     }
     variants = {"default": {}, "sweep": {"dt_sweep": "full"}, "hardening": {"hardening": 200.0},
-                "plane_strain": {"element": "triangle"}}
+                "plane_strain": {"element": "triangle"}, "green": {"strain": "green"}}
     default_variants = ("default",)
     quick_variants = ("default",)
 
@@ -115,7 +134,9 @@ class PlasticSet(Case):
                 omega_p * span)
         e_p = 2 * mu * (e_max - e_y) / (2 * mu + two_h)
         t_max = t1 + span
-        return {"mu": mu, "k": k, "omega": omega, "s_y": s_y, "e_y": e_y, "v0": v0, "w": w,
+        lam = p["youngs_modulus"] * p["poisson_ratio"] / (
+            (1 + p["poisson_ratio"]) * (1 - 2 * p["poisson_ratio"]))
+        return {"mu": mu, "lam": lam, "k": k, "omega": omega, "s_y": s_y, "e_y": e_y, "v0": v0, "w": w,
                 "t1": t1, "t_max": t_max, "e_p": e_p, "e_max": e_max, "slope": slope,
                 "two_h": two_h, "t_end": t_max + np.pi / (2 * omega)}
 
@@ -147,7 +168,10 @@ class PlasticSet(Case):
     def scene(self, p):
         nodes, centre = self._rest(p)
         v0 = self.constants(p)["v0"]
-        material = Material(p["youngs_modulus"], p["poisson_ratio"], p["density"], "linear",
+        if p["strain"] == "green" and (p["element"] != "tetrahedron" or p["hardening"]):
+            raise ValueError("plastic_set.strain: green runs on the tetrahedron with ideal "
+                             "plasticity (element tetrahedron, hardening 0)")
+        material = Material(p["youngs_modulus"], p["poisson_ratio"], p["density"], p["strain"],
                             Plasticity(p["yield_stress"], p["hardening"]))
         velocities = v0 * (nodes - centre) @ self.direction(p).T
         if p["element"] == "triangle":
@@ -160,13 +184,21 @@ class PlasticSet(Case):
     def bodies(self, p):
         return 4
 
+    def _green(self, p) -> GreenTet:
+        """The green variant's reduced tetrahedron and its reference solve (cached)."""
+        key = tuple(sorted(p.items()))
+        cache = self.__dict__.setdefault("_greens", {})
+        if key not in cache:
+            cache[key] = GreenTet(self.constants(p), self.constants(p)["lam"])
+        return cache[key]
+
     def t_end(self, p):
-        return self.constants(p)["t_end"]
+        return self._green(p).t_end if p["strain"] == "green" else self.constants(p)["t_end"]
 
     def _dt(self, p, y):
         """The step nearest y / omega that divides t_end into whole steps."""
-        c = self.constants(p)
-        return c["t_end"] / round(c["t_end"] * c["omega"] / y)
+        t_end = self.t_end(p)
+        return t_end / round(t_end * self.constants(p)["omega"] / y)
 
     def dts(self, p):
         if p["dt_sweep"] == "reference":
@@ -181,14 +213,19 @@ class PlasticSet(Case):
 
     def reference(self, p, t):
         nodes, centre = self._rest(p)
+        if p["strain"] == "green":
+            return {"x": centre + self._green(p).stretches(t)[:, None, :] * (nodes - centre)}
         e = self.strain(p, np.atleast_1d(t))
         return {"x": centre + (nodes - centre)[None] + e[:, None, None] *
                 ((nodes - centre) @ self.direction(p).T)[None]}
 
     def motion_scale(self, p):
-        """The largest displacement's 2-norm over the nodes, e_max ||N (X - c)|| (m)."""
+        """The largest displacement's 2-norm over the nodes, e_max ||N (X - c)|| (m); green:
+        ||(l - 1) (X - c)|| at the turning point."""
         nodes, centre = self._rest(p)
         c = self.constants(p)
+        if p["strain"] == "green":
+            return float(np.linalg.norm((self._green(p).l_max - 1.0) * (nodes - centre)))
         return float(c["e_max"] * np.linalg.norm((nodes - centre) @ self.direction(p).T))
 
     def extra_metrics(self, p, obs, observed, reference):
@@ -197,18 +234,22 @@ class PlasticSet(Case):
         d = 3 if p["element"] == "tetrahedron" else 2
         dm, ds = (nodes[1:, :d] - nodes[0, :d]).T, (x[1:, :d] - x[0, :d]).T
         f = ds @ np.linalg.inv(dm)
+        exact = self.constants(p)["e_p"]
+        if p["strain"] == "green":  # N : (F - I) of the reference at t_end
+            exact = float(self._green(p).n @ (self._green(p).stretches(obs["t"][-1])[0] - 1.0))
         return {"permanent_strain": float(np.sum((f - np.eye(d)) * self.direction(p)[:d, :d])),
-                "permanent_strain_exact": self.constants(p)["e_p"]}
+                "permanent_strain_exact": exact}
 
     def discrete(self, p, integrator, dt, steps) -> np.ndarray:
         """(steps + 1,) e_n of the named method on the reduced oscillator (module docstring);
-        a scalar loop over the run's steps (four nodes: the case's reference, not a hot
-        path)."""
+        (steps + 1, 3) stretches diag F for the green variant (GreenTet)."""
+        name, h = spec_name(integrator), float(dt)
+        if p["strain"] == "green":
+            return self._green(p).discrete(name, h, steps)
         c = self.constants(p)
         k, two_mu, s_y, omega2 = c["k"], 2 * c["mu"], c["s_y"], c["omega"] ** 2
         two_h = c["two_h"]
         share = two_h / (two_mu + two_h)  # of the trial's excess kept as stress
-        name, h = spec_name(integrator), float(dt)
         state = {"e_p": 0.0, "flow": 0.0}  # committed e_p and accumulated |de_p|
 
         def radius():
@@ -231,52 +272,32 @@ class PlasticSet(Case):
             alpha = sign * radius() * (1 - share) - beta * state["e_p"]
             return (e + h * v - h * h * k * alpha) / (1 + h * h * k * beta)
 
-        e, v, out = 0.0, c["v0"], [0.0]
-        a = accel(e)
-        for _ in range(int(steps)):
-            if name == "explicit_euler":
-                e, v = e + h * v, v + h * a
-            elif name == "symplectic_euler":
-                v = v + h * a
-                e = e + h * v
-            elif name == "velocity_verlet":
-                half = v + h / 2 * a
-                e = e + h * half
-                v = half + h / 2 * accel(e)
-            elif name == "rk4":
-                k1x, k1v = v, a
-                k2x, k2v = v + h / 2 * k1v, accel(e + h / 2 * k1x)
-                k3x, k3v = v + h / 2 * k2v, accel(e + h / 2 * k2x)
-                k4x, k4v = v + h * k3v, accel(e + h * k3x)
-                e, v = (e + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x),
-                        v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
-            elif name == "implicit_euler":
-                e1 = implicit(e, v)
-                e, v = e1, (e1 - e) / h
-            elif name == "baraff_witkin":  # one linearised step, the elastic tangent
-                v = v + h * (a - h * omega2 * v) / (1 + h * h * omega2)
-                e = e + h * v
-            else:
-                raise ValueError(f"plastic_set has no discrete solution for {integrator!r}")
+        def linearised(e, v, a):  # one Baraff-Witkin step, the elastic tangent
+            return v + h * (a - h * omega2 * v) / (1 + h * h * omega2)
+
+        def commit(e):  # the return made permanent
             trial = two_mu * (e - state["e_p"])
-            if abs(trial) > radius():  # commit the return
+            if abs(trial) > radius():
                 step = (abs(trial) - radius()) / (two_mu + two_h)
                 state["e_p"] += np.sign(trial) * step
                 state["flow"] += step
-            a = accel(e)
-            out.append(e)
-        return np.array(out)
+
+        return march(name, h, 0.0, c["v0"], accel, implicit, linearised, commit, steps)
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         """The named method's exact discrete solution against the closed form, plus
         round-off (module docstring)."""
         c = self.constants(p)
-        steps = int(round(c["t_end"] / dt))
+        steps = int(round(self.t_end(p) / dt))
         nodes, centre = self._rest(p)
         size = float(np.linalg.norm((nodes - centre) @ self.direction(p).T))
         samples = sample_steps(steps, int(round(self.sample_dt(p) / dt)))
         e = self.discrete(p, integrator, dt, steps)[samples]
-        deviation = size * float(np.max(np.abs(e - self.strain(p, samples * dt))))
+        if p["strain"] == "green":  # the node error (l_n - l(t)) (X - c), 2-norm
+            gap = (e - self._green(p).stretches(samples * dt))[:, None, :] * (nodes - centre)
+            deviation = float(np.max(np.linalg.norm(gap, axis=(1, 2))))
+        else:
+            deviation = size * float(np.max(np.abs(e - self.strain(p, samples * dt))))
         roundoff, reason = roundoff_tolerance(steps, 0.5 * np.sqrt(12) * (
             float(np.abs(nodes).max()) + self.motion_scale(p)))
         return deviation + roundoff, (
