@@ -1,7 +1,9 @@
 """Float64 taichi kernels of a P1 finite-element mesh (refsim.models.fem.elements and
-fem_system's model): deformation gradients, the laws' stresses (`fem_stress`), nodal forces,
-lumped masses, loads and gravity, the four explicit steppers of the fem group, and the
-tangent stiffness's triplets for the static Newton solve.
+FemSystem's model): deformation gradients, the laws' stresses (`fem_stress`) or the von
+Mises return from the committed plastic state (`fem_plastic`, committed after each step of
+every stepper), nodal forces, lumped masses, loads and gravity, the four explicit steppers of
+the fem group, and the tangent stiffness's triplets (scale K + diag M, and K w) for the static
+Newton solve and the implicit steppers (`fem_implicit`).
 
 All in the body's own coordinates (d = 2: the triangles' plane; d = 3: the world), every
 node in the arrays, pinned ones included (inverse mass 0: their acceleration is 0, so with
@@ -15,12 +17,13 @@ LAPACK's det round differently from these expressions).
 Masses m = sum rho V / (d + 1) the same way; a = (f + ext) inv_m with ext = loads + m g and
 inv_m = 1 / m on free nodes (refsim's accel: forces times 1 / m).
 
-`kernels(d, law, plane_strain)` makes one family per element dimension and law, once per
-process (taichi compiles each kernel on its first call).
+`kernels(d, law, plane_strain, plastic)` makes one family per element dimension, law and
+plasticity, once per process (taichi compiles each kernel on its first call).
 No `from __future__ import annotations` here: taichi reads annotations as objects.
 """
 from types import SimpleNamespace
 
+from .fem_plastic import plastic_functions
 from .fem_stress import law_functions
 from .kernel_types import f64, i32, nd_f64, nd_i32, ti
 from .runtime import runtime
@@ -38,13 +41,17 @@ def pack_type(d):
               "dm_inv": ti.types.ndarray(dtype=mat, ndim=1), "volume": nd_f64,
               "density": f64, "mass": nd_f64, "inv_m": nd_f64, "loads": nd_vec,
               "gravity": vec, "ext": nd_vec, "free_index": nd_i32,
-              "mu": f64, "lam": f64, "alpha": f64}
+              "mu": f64, "lam": f64, "alpha": f64,
+              "eps_p": ti.types.ndarray(dtype=ti.types.matrix(3, 3, f64), ndim=1),
+              "equiv": nd_f64, "sigma_y": f64, "hardening": f64}
     return ti.types.argpack(**fields), nd_vec, vec, mat
 
 
-def make_kernels(d, law, plane_strain):
+def make_kernels(d, law, plane_strain, plastic):
     pack_t, nd_vec, vec, mat = pack_type(d)
     stress, differential = law_functions(law, plane_strain)
+    plastic_stress, plastic_commit = plastic_functions(law, plane_strain) if plastic else \
+        (None, None)
 
     @ti.func
     def gradient(P: ti.template(), x: ti.template(), e, off):
@@ -70,12 +77,31 @@ def make_kernels(d, law, plane_strain):
             f[off + c[a + 1]] += h[:, a]
 
     @ti.func
+    def element_stress(P: ti.template(), F, e):
+        """P(F) of element e: the law's, or after the radial return from its committed
+        plastic state (`fem_plastic`)."""
+        out = F
+        if ti.static(plastic):
+            out = plastic_stress(P, F, e)
+        else:
+            out = stress(F, P.mu, P.lam, P.alpha)
+        return out
+
+    @ti.func
     def elastic(P: ti.template(), x: ti.template(), f: ti.template(), off):
         """f = the elastic nodal forces -dU/dx at x (every node)."""
         for i in range(P.mass.shape[0]):
             f[off + i] = vec(0.0)
         for e in range(P.cells.shape[0]):
-            scatter(P, f, e, off, stress(gradient(P, x, e, off), P.mu, P.lam, P.alpha))
+            scatter(P, f, e, off, element_stress(P, gradient(P, x, e, off), e))
+
+    @ti.func
+    def commit_all(P: ti.template(), x: ti.template()):
+        """After an accepted step: every element's return at x made permanent (a plastic
+        family only; nothing otherwise), as refsim's FemSystem.advance commits."""
+        if ti.static(plastic):
+            for e in range(P.cells.shape[0]):
+                plastic_commit(P, gradient(P, x, e, 0), e)
 
     @ti.func
     def accel(P: ti.template(), x: ti.template(), a: ti.template(), off):
@@ -109,6 +135,13 @@ def make_kernels(d, law, plane_strain):
             elastic(P, x, f, 0)
 
     @ti.kernel
+    def commit(P: pack_t, x: nd_vec):
+        """commit_all at x (the implicit steppers' accepted step)."""
+        ti.loop_config(serialize=True)
+        for _ in range(1):
+            commit_all(P, x)
+
+    @ti.kernel
     def explicit_euler(P: pack_t, x: nd_vec, v: nd_vec, a: nd_vec, h: f64, n: i32):
         """x += h v; v += h a(x) (both from the old state)."""
         ti.loop_config(serialize=True)
@@ -117,6 +150,7 @@ def make_kernels(d, law, plane_strain):
             for i in range(x.shape[0]):
                 x[i] = x[i] + h * v[i]
                 v[i] = v[i] + h * a[i]
+            commit_all(P, x)
 
     @ti.kernel
     def symplectic_euler(P: pack_t, x: nd_vec, v: nd_vec, a: nd_vec, h: f64, n: i32):
@@ -127,6 +161,7 @@ def make_kernels(d, law, plane_strain):
             for i in range(x.shape[0]):
                 v[i] = v[i] + h * a[i]
                 x[i] = x[i] + h * v[i]
+            commit_all(P, x)
 
     @ti.kernel
     def velocity_verlet(P: pack_t, x: nd_vec, v: nd_vec, a: nd_vec, h: f64, n: i32,
@@ -144,6 +179,7 @@ def make_kernels(d, law, plane_strain):
             if step >= start:
                 for i in range(x.shape[0]):
                     v[i] = v[i] + (0.5 * h) * a[i]
+                commit_all(P, x)
 
     @ti.kernel
     def rk4(P: pack_t, x: nd_vec, v: nd_vec, xs: nd_vec, vs: nd_vec, acc: nd_vec, h: f64,
@@ -171,12 +207,23 @@ def make_kernels(d, law, plane_strain):
                     h6 * vs[3 * m + i]
                 v[i] = v[i] + h6 * acc[i] + h3 * acc[m + i] + h3 * acc[2 * m + i] + \
                     h6 * acc[3 * m + i]
+            commit_all(P, x)
 
     @ti.kernel
-    def stiffness(P: pack_t, x: nd_vec, K: ti.types.sparse_matrix_builder()):
-        """The tangent K = -df/dx on the free dofs (free node k, component i -> k d + i) as
-        triplets: K_e[(a, i), (b, k)] = V sum_j dP(F; e_k grad_b^T)_ij grad_a,j, one
-        directional derivative of the law per element dof (refsim's element_stiffness)."""
+    def stiffness(P: pack_t, x: nd_vec, K: ti.types.sparse_matrix_builder(), scale: f64,
+                  diag: f64, w: nd_vec, kw: nd_f64):
+        """scale K + diag M as triplets, K = -df/dx the tangent on the free dofs (free node k,
+        component i -> k d + i): K_e[(a, i), (b, k)] = V sum_j dP(F; e_k grad_b^T)_ij
+        grad_a,j, one directional derivative of the ELASTIC law per element dof (refsim's
+        element_stiffness; a plastic law's tangent is its elastic law's), entered as
+        scale (V value); M the lumped masses (no triplets where diag = 0). Also kw += K w
+        on the free dofs (kw zeroed by the caller; w every node's, pinned ones' unused)."""
+        ti.loop_config(serialize=True)
+        for i in range(P.mass.shape[0]):
+            row = P.free_index[i]
+            if row >= 0 and diag != 0.0:
+                for k in range(d):
+                    K[row * d + k, row * d + k] += diag * P.mass[i]
         ti.loop_config(serialize=True)
         for e in range(P.cells.shape[0]):
             c = P.cells[e]
@@ -203,18 +250,21 @@ def make_kernels(d, law, plane_strain):
                             value = 0.0
                             for j in range(d):
                                 value += dP[i, j] * grads[a, j]
-                            K[row * d + i, col * d + k] += P.volume[e] * value
+                            entry = P.volume[e] * value
+                            K[row * d + i, col * d + k] += scale * entry
+                            kw[row * d + i] += entry * w[c[b]][k]
 
-    return SimpleNamespace(pack_t=pack_t, vec=vec, mat=mat, cell=cell_type(d), setup=setup,
+    return SimpleNamespace(pack_t=pack_t, vec=vec, mat=mat, mat3=ti.types.matrix(3, 3, f64),
+                           cell=cell_type(d), setup=setup,
                            forces=forces, explicit_euler=explicit_euler,
                            symplectic_euler=symplectic_euler, velocity_verlet=velocity_verlet,
-                           rk4=rk4, stiffness=stiffness)
+                           rk4=rk4, stiffness=stiffness, commit=commit)
 
 
-def kernels(d: int, law: str, plane_strain: bool):
-    """The kernel family of (d, law, plane strain), made once per process."""
+def kernels(d: int, law: str, plane_strain: bool, plastic: bool = False):
+    """The kernel family of (d, law, plane strain, plastic), made once per process."""
     made = runtime()["kernels"]
-    key = ("fem", d, law, bool(plane_strain))
+    key = ("fem", d, law, bool(plane_strain), bool(plastic))
     if key not in made:
-        made[key] = make_kernels(d, law, bool(plane_strain))
+        made[key] = make_kernels(d, law, bool(plane_strain), bool(plastic))
     return made[key]

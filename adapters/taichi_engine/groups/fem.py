@@ -20,11 +20,17 @@ As refsim's fem group, the scene chooses:
   under the positions' round-off, or one step for the linear law), so the two rows differ by
   the solves' round-off only; a CG would add its own stopping tolerance to every iteration.
 - any other scene: explicit_euler, symplectic_euler, velocity_verlet or rk4 with refsim's
-  arithmetic, the time loop inside one kernel per Sim.step(n) (serialized).
-Refused: plasticity (no von Mises return in these kernels), contact, other parts, implicit
-steppers (no implicit kernels here: refsim's implicit_euler and baraff_witkin are not
-mirrored). Observes x, v (n, 3) of every node (pinned ones at their positions, v = 0), and
-for "steady" `residual` (max |f_int + f_ext| on the free dofs, N) and `iterations`.
+  arithmetic, the time loop inside one kernel per Sim.step(n) (serialized); implicit_euler
+  and baraff_witkin (`fem_implicit`: refsim's simplified Newton and linearised step, M + h^2 K
+  from the same tangent kernel, solved by the same SparseSolver LDLT, one factorisation per
+  step), a Python iteration per step.
+Plasticity (`fem_plastic`): refsim's von Mises radial return (ideal or linear hardening) on
+the linear, green and corotated laws, tetrahedra or plane strain, per element state in the
+argpack, committed after every accepted step of every stepper (refsim's FemSystem.advance);
+the tangent stays the elastic law's. Refused: plasticity elsewhere (refsim has no
+plane-stress return), contact, other parts. Observes x, v (n, 3) of every node (pinned ones
+at their positions, v = 0), and for "steady" `residual` (max |f_int + f_ext| on the free
+dofs, N) and `iterations`.
 """
 from __future__ import annotations
 
@@ -40,12 +46,14 @@ from refsim.scene import single_mesh
 
 from ..kernel_store import arrays_setting, to_taichi
 
-STEPPERS = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4")
+EXPLICIT = ("explicit_euler", "symplectic_euler", "velocity_verlet", "rk4")
+STEPPERS = EXPLICIT + ("implicit_euler", "baraff_witkin")
 INTEGRATORS = ("steady",) + STEPPERS
 STEADY = {"name": "steady", "order": 0, "family": "static solve (Newton)", "explicit": False,
           "symplectic": False}
 NEWTON_RTOL = 1e-12  # refsim's fem group's: the static cases' bound reads it from settings
 MAX_ITER = 50  # refsim's solve_static default
+PLASTIC_LAWS = ("linear", "green", "corotated")  # refsim's VonMises
 ROUND_OFF = 16 * np.finfo(float).eps  # an update below this x max |x| moves nothing (refsim)
 NATIVE = {"explicit_euler": "kernel: x += h v; v += h a(x) (from the old state)",
           "symplectic_euler": "kernel: v += h a(x); x += h v",
@@ -66,8 +74,13 @@ def supports(engine, scene, integrator):
         return (f"taichi fem: one mesh alone, got also "
                 f"{', '.join(sorted(scene.part_kinds() - {'meshes'}))}")
     mesh = _mesh(scene)
-    if mesh.material.plasticity is not None:
-        return "taichi fem: no plasticity kernels (von Mises return only in refsim's model)"
+    plastic = mesh.material.plasticity
+    if plastic is not None and mesh.material.strain not in PLASTIC_LAWS:
+        return (f"taichi fem: von Mises plasticity on the laws {', '.join(PLASTIC_LAWS)} "
+                f"(refsim's), not {mesh.material.strain}")
+    if plastic is not None and getattr(mesh, "plane", "") == "stress":
+        return ("taichi fem: plasticity on tetrahedra or plane strain (refsim has no "
+                "plane-stress return)")
     if len(mesh.pinned) == len(mesh):
         return "taichi fem: every node is pinned (nothing moves)"
     if scene.contact is not None:
@@ -78,8 +91,7 @@ def supports(engine, scene, integrator):
         return ("taichi fem: the scene asks for its static equilibrium (meta solve = static), "
                 "solved by 'steady', not stepped by " + name)
     if name and not static and name not in STEPPERS:
-        return (f"taichi fem steps a dynamic scene with {', '.join(STEPPERS)} (no implicit "
-                f"kernels), not {name}")
+        return f"taichi fem steps a dynamic scene with {', '.join(STEPPERS)}, not {name}"
     return None
 
 
@@ -93,10 +105,14 @@ class FemData:
         elements, law = self.body.elements, self.body.law
         self.d, self.n = elements.d, elements.n
         self.plane_strain = getattr(mesh, "plane", "") == "strain" and self.d == 2
-        inner = getattr(law, "law", law)  # plane strain wraps the 3D law
+        plasticity = mesh.material.plasticity
+        self.plastic = plasticity is not None
+        inner = getattr(law, "base", law)  # von Mises wraps the (3D) elastic law
+        inner = getattr(inner, "law", inner)  # plane strain wraps the 3D law
         self.law = {"name": law.name, "mu": inner.mu, "lam": inner.lam,
                     "alpha": float(getattr(inner, "alpha", 0.0))}
-        self.k = kernels(self.d, law.name, self.plane_strain)
+        self.linear = law.name == "linear" and not self.plastic  # refsim's ElasticBody.linear
+        self.k = kernels(self.d, law.name, self.plane_strain, self.plastic)
         free = np.ones(self.n, bool)
         free[mesh.pinned] = False
         self.free = free
@@ -109,12 +125,31 @@ class FemData:
             "inv_m": to_taichi(np.zeros(self.n)),
             "loads": to_taichi(self.body.to_local(mesh.loads), vec),
             "ext": to_taichi(np.zeros((self.n, d)), vec),
-            "free_index": to_taichi(self.free_index)}
-        self.pack = self.k.pack_t(**self.arrays, density=float(mesh.material.density),
-                                  gravity=vec(*self.body.to_local(np.asarray(gravity, float))),
-                                  mu=self.law["mu"], lam=self.law["lam"],
-                                  alpha=self.law["alpha"])
+            "free_index": to_taichi(self.free_index), **self._fresh_state()}
+        self.scalars = {"density": float(mesh.material.density),
+                        "gravity": vec(*self.body.to_local(np.asarray(gravity, float))),
+                        "mu": self.law["mu"], "lam": self.law["lam"], "alpha": self.law["alpha"],
+                        "sigma_y": float(plasticity.yield_stress) if self.plastic else 0.0,
+                        "hardening": float(plasticity.hardening) if self.plastic else 0.0}
+        self.pack = self.k.pack_t(**self.arrays, **self.scalars)
         self.k.setup(self.pack)
+
+    def _fresh_state(self) -> dict:
+        """Zero plastic strain eps_p (m, 3 x 3) and equivalent plastic strain (m,) (unused
+        by an elastic material's kernels)."""
+        m = len(self.body.elements.cells)
+        return {"eps_p": to_taichi(np.zeros((m, 3, 3)), self.k.mat3),
+                "equiv": to_taichi(np.zeros(m))}
+
+    def compile_commit(self, x):
+        """Compiles the `commit` kernel on a copy of the pack with a fresh plastic state (the
+        mesh's own committed state untouched)."""
+        self.k.commit(self.k.pack_t(**{**self.arrays, **self._fresh_state()}, **self.scalars),
+                      np.ascontiguousarray(x))
+
+    def plastic_state(self):
+        """(eps_p (m, 3, 3), equivalent plastic strain (m,)) committed so far."""
+        return self.arrays["eps_p"].to_numpy(), self.arrays["equiv"].to_numpy()
 
     def masses(self) -> np.ndarray:
         return self.arrays["mass"].to_numpy()
@@ -150,6 +185,11 @@ class FemData:
                 "free_nodes": int(self.free.sum()), "pinned": int(len(self.mesh.pinned)),
                 "mass": "lumped (rho V / (d + 1) per element node, refsim's FemSystem's)",
                 "damping": "none", "rest_shape": "Dm^-1, V from refsim's ElasticBody (numpy)",
+                "plasticity": ({"rule": "von Mises, radial return (refsim's), f64 kernel",
+                                "yield_stress": self.scalars["sigma_y"],
+                                "hardening": self.scalars["hardening"],
+                                "commit": "after every accepted step (every stepper)",
+                                "tangent": "the elastic law's"} if self.plastic else None),
                 "rotation": ("2D closed form (c, s) = (F00 + F11, F10 - F01) / r"
                              if self.d == 2 and not self.plane_strain else
                              "ti.polar_decompose (Sifakis SVD, ~1e-10) + 2 Newton polish "
@@ -178,7 +218,7 @@ class FemKernelSim(Sim):
         v = np.array(data.mesh.velocities, float)
         v[~data.free] = 0.0
         self.v = data.local(v)
-        key = ("fem", data.d, data.law["name"], data.plane_strain, integrator)
+        key = ("fem", data.d, data.law["name"], data.plane_strain, data.plastic, integrator)
         self.cold = key not in rt["compiled"]
         self._prepare()
         self.advance(0)  # compiles on first use
@@ -243,7 +283,9 @@ class FemStaticSim(Sim):
                                                      dtype=ti.f64)
         self.solver = ti.linalg.SparseSolver(dtype=ti.f64, solver_type="LDLT", ordering="AMD")
         self.residual, self.iterations = float("nan"), 0
-        key = ("fem", data.d, data.law["name"], data.plane_strain, "steady")
+        self.unused = (to_taichi(np.zeros((data.n, data.d)), data.k.vec),
+                       to_taichi(np.zeros(size)))  # the kernel's w, kw (no K w here)
+        key = ("fem", data.d, data.law["name"], data.plane_strain, data.plastic, "steady")
         self.cold = key not in rt["compiled"]
         self.solver.analyze_pattern(self._stiffness(self.x))  # compiles; pattern found once
         data.forces(self.x)
@@ -252,7 +294,7 @@ class FemStaticSim(Sim):
         rt["compiled"].add(key)
 
     def _stiffness(self, x):
-        self.data.k.stiffness(self.data.pack, x, self.builder)
+        self.data.k.stiffness(self.data.pack, x, self.builder, 1.0, 0.0, *self.unused)
         return self.builder.build()
 
     def _solve(self, x, rhs):
@@ -265,7 +307,7 @@ class FemStaticSim(Sim):
 
     def _newton(self):
         """refsim.models.fem.static's Newton loop, with the kernels' forces and tangent."""
-        x, free, linear = self.x0.copy(), self.free_dofs, self.data.law["name"] == "linear"
+        x, free, linear = self.x0.copy(), self.free_dofs, self.data.linear
         for iteration in range(MAX_ITER + 1):
             f_int = self.data.forces(x)
             residual = (f_int + self.loads).reshape(-1)[free]
@@ -310,6 +352,9 @@ class FemStaticSim(Sim):
 def build(engine, scene, dt, integrator, formulation):
     if integrator == "steady":
         return FemStaticSim(scene, dt)
+    if integrator not in EXPLICIT:
+        from ..fem_implicit import FemImplicitSim
+        return FemImplicitSim(scene, dt, integrator)
     return FemKernelSim(scene, dt, integrator)
 
 

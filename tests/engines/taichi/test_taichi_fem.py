@@ -289,10 +289,15 @@ def test_refusals():
     dynamic, static = Scene(parts=(mesh,)), Scene(parts=(mesh,), meta={"solve": "static"})
     assert TAICHI.supports(dynamic, "rk4") is None and TAICHI.supports(static, "steady") is None
     assert "steady" in TAICHI.supports(static, "rk4")
-    assert "implicit" in TAICHI.supports(dynamic, "implicit_euler")
+    assert TAICHI.supports(dynamic, "implicit_euler") is None
     plastic = dataclasses.replace(mesh, material=dataclasses.replace(
         mesh.material, plasticity=Plasticity(10.0)))
-    assert "plasticity" in TAICHI.supports(Scene(parts=(plastic,)), "rk4")
+    assert "plane strain" in TAICHI.supports(Scene(parts=(plastic,)), "rk4")  # plane stress
+    assert TAICHI.supports(Scene(parts=(dataclasses.replace(plastic, plane="strain"),)),
+                           "implicit_euler") is None
+    neo = dataclasses.replace(plastic, plane="strain", material=dataclasses.replace(
+        plastic.material, strain="neo_hookean"))
+    assert "neo_hookean" in TAICHI.supports(Scene(parts=(neo,)), "rk4")
     every = dataclasses.replace(mesh, pinned=np.arange(len(mesh)))
     assert "pinned" in TAICHI.supports(Scene(parts=(every,)), "rk4")
 
