@@ -27,6 +27,8 @@ class MujocoEngine(Engine):
         "meshes": "the mujoco adapter's fem group runs one mesh per scene (a MuJoCo 4 flex); "
                   "several meshes are not offered",
         "emitter": "mujoco does not simulate emitter",
+        "fluid_grids": ("mujoco has no grid fluid solver (no MAC grid, advection or pressure "
+                        "projection; it simulates multibody dynamics and flex meshes)"),
     }
 
     def build(self, scene, dt, integrator, formulation=""):

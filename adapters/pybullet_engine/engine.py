@@ -30,6 +30,8 @@ class PybulletEngine(Engine):
     refusals = {
         "grids": grid_refusal_sentence(
             "pybullet", "it simulates rigid bodies, multibodies and soft-body meshes"),
+        "fluid_grids": ("pybullet has no grid fluid solver (no MAC grid, advection or pressure "
+                        "projection; it simulates rigid bodies, multibodies, soft meshes)"),
         **{kind: f"pybullet does not simulate {kind}" for kind in NOT_SIMULATED},
         # a scene of one mesh goes to the fem group (groups/fem.py), which says why it
         # refuses the meshes it cannot run; only a scene of several meshes reaches this line

@@ -22,6 +22,8 @@ class PymunkEngine(Engine):
     refusals = {
         **{kind: f"pymunk does not simulate {kind}" for kind in NOT_SIMULATED},
         "grids": grid_refusal_sentence("pymunk", "it is a 2D rigid-body engine"),
+        "fluid_grids": ("pymunk has no grid fluid solver (no MAC grid, advection or pressure "
+                        "projection; it is a 2D rigid-body engine)"),
         # free rigid bodies; those with shapes on walls are the rolling group, pivoted ones the
         # pivots group
         "rigid": ("pymunk is 2D: free rigid bodies here turn about a tilted or changing axis "

@@ -22,7 +22,9 @@ class TaichiEngine(Engine):
     integrators = INTEGRATORS
     refusals = {"rigid_shapes": "taichi's rigid kernels have no frictional contact (they "
                                 "follow the slides' rigid-body model: Newton-Euler and the "
-                                "orientation)"}
+                                "orientation)",
+                "fluid_grids": ("taichi's grid-fluid kernels (MAC grid, semi-Lagrangian "
+                                "advection, projection) are not written yet")}
 
     def available(self) -> bool:
         try:

@@ -98,12 +98,17 @@ def method_info(spec: str) -> dict | None:
     """The method an integrator spec names, as refsim defines it: {name, order, symplectic,
     implicit, adaptive}, or None for a name refsim does not define (an engine's own scheme,
     e.g. MuJoCo's implicitfast). Covers the second-order steppers (`get_integrator`), the
-    sparse first-order theta methods of the grid models (crank_nicolson) and the static solve
-    ("steady", order 0: one complete solve to the solver's tolerance)."""
+    sparse first-order theta methods of the grid models (crank_nicolson), the static solve
+    ("steady", order 0: one complete solve to the solver's tolerance) and the grid-fluid
+    schemes ("sl_linear:rk2", refsim.integrators.semi_lagrangian)."""
+    from .semi_lagrangian import scheme_info
     from .sparse_linear import first_order_implicit
     name = spec_name(spec)
     if name in STATIC_SOLVE:
         return dict(STATIC_SOLVE[name])
+    if scheme_info(spec) is not None:
+        return {k: scheme_info(spec)[k] for k in ("name", "order", "symplectic", "implicit",
+                                                  "adaptive")}
     try:
         method = get_integrator(spec)
     except ValueError:

@@ -28,13 +28,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsim.integrators.semi_lagrangian import BACKTRACES, INTERPOLANTS  # names and orders
+
 from .mac import (LOCATIONS, MacGrid, bilinear, enforce_boundaries, index_coordinates, padded,
                   velocity_sampler)
 
-BACKTRACES = {"euler": 1, "rk2": 2, "rk3": 3}  # name -> order in dt of the characteristic
 BACKTRACE_TEXT = {"euler": "explicit Euler", "rk2": "explicit midpoint (RK2)",
                   "rk3": "Ralston's third-order RK (2/9, 1/3, 4/9)"}
-INTERPOLANTS = {"linear": 2, "cubic": 3, "cubic_clamped": 2}  # order in h, max norm, smooth
 INTERPOLANT_TEXT = {"linear": "bilinear (hat per axis)",
                     "cubic": "Catmull-Rom cubic per axis (tensor product, 16 points)",
                     "cubic_clamped": "Catmull-Rom cubic clamped to the 2 x 2 nearest values "

@@ -7,9 +7,9 @@ Step (operator splitting, Chorin's projection method as in Stam 1999 / Bridson 2
 4. walls and solid faces set to 0, periodic duplicates copied; project
    (refsim.models.grid_fluid.projection): D u^{n+1} = 0 to the solver's tolerance.
 
-Scheme names (the engines' integrators): "sl_<interpolant>[:<backtrace>]", interpolant one of
-linear, cubic, cubic_clamped and backtrace one of euler, rk2 (the default), rk3, e.g.
-"sl_linear:rk2". Orders: the splitting is first order in dt (order 1, every scheme: the
+Scheme names (the engines' integrators, refsim.integrators.semi_lagrangian: parse_scheme,
+scheme_info): "sl_<interpolant>[:<backtrace>]", interpolant one of linear, cubic,
+cubic_clamped and backtrace one of euler, rk2 (the default), rk3, e.g. "sl_linear:rk2". Orders: the splitting is first order in dt (order 1, every scheme: the
 advection, viscous and pressure substeps do not commute); the backtrace is of order 1, 2 or 3
 in dt along the characteristic; the interpolation errs by O(h^2) (linear) or O(h^3) (cubic)
 per step, O(h^(p+1) / dt) over a unit time; the viscous and pressure operators are second
@@ -21,43 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.integrators.spec import IntegratorSpec
+from refsim.integrators.semi_lagrangian import (DEFAULT_BACKTRACE, SCHEMES, SPLITTING_ORDER,
+                                                parse_scheme, scheme_info)
 from refsim.scene.fluid_grid import SOLID
 
 from . import advection
 from .mac import MacGrid, divergence, enforce_boundaries
 from .projection import PressureSystem
 from .viscosity import Viscosity
-
-SCHEMES = tuple(f"sl_{name}" for name in advection.INTERPOLANTS)
-DEFAULT_BACKTRACE = "rk2"
-SPLITTING_ORDER = 1
-
-
-def parse_scheme(spec) -> tuple[str, str]:
-    """'sl_linear:rk3' -> ('linear', 'rk3'); the backtrace defaults to rk2."""
-    parsed = IntegratorSpec.parse(spec)
-    if parsed.name not in SCHEMES:
-        raise ValueError(f"grid-fluid scheme must be one of {list(SCHEMES)} (optionally "
-                         f":euler, :rk2 or :rk3), got {spec!r}")
-    backtrace = parsed.arg or DEFAULT_BACKTRACE
-    if parsed.colon and not parsed.arg or backtrace not in advection.BACKTRACES:
-        raise ValueError(f"grid-fluid scheme {parsed.name!r} backtrace must be one of "
-                         f"{list(advection.BACKTRACES)}, got {spec!r}")
-    return parsed.name[3:], backtrace
-
-
-def scheme_info(spec) -> dict | None:
-    """The method a scheme spec names: {name, order (in dt, the splitting's), symplectic,
-    implicit, adaptive, backtrace_order, interpolant_order_h}; None for another name."""
-    try:
-        interpolant, backtrace = parse_scheme(spec)
-    except ValueError:
-        return None
-    return {"name": f"sl_{interpolant}:{backtrace}", "order": float(SPLITTING_ORDER),
-            "symplectic": False, "implicit": False, "adaptive": False,
-            "backtrace_order": advection.BACKTRACES[backtrace],
-            "interpolant_order_h": advection.INTERPOLANTS[interpolant]}
 
 
 class FluidSolver:
