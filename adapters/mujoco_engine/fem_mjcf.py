@@ -6,7 +6,8 @@ plane motion), tetrahedra dim="3" dof="full" (slides x, y, z); `<pin id>` for pi
 (vertices on the world body, no joints); `<elasticity young poisson [thickness elastic2d=
 "stretch"] damping>` (MuJoCo's StVK on P1 elements: energy mu tr(E^2) + lambda/2 tr(E)^2 of the
 Green strain E, in 2D times the thickness with the plane-stress lambda* = E nu / (1 - nu^2);
-`damping` is Rayleigh, in time units: the damping force -damping K v); contacts off. Plane
+`damping` is Rayleigh, in time units: the damping force -damping K v; `yield` the plastic
+yield strain of fem_yield when the material is plastic); contacts off. Plane
 strain is passed as the plane-stress constants of the same in-plane law (`flex_constants`);
 MuJoCo takes Poisson ratios in [0, 0.5) only (`constants_reason`).
 
@@ -39,6 +40,7 @@ from refsim.models.fem.model import ElasticBody
 from refsim.scene import TriangleMesh, single_mesh
 
 from .mjcf import xml_floats
+from .fem_yield import yield_strain
 from .network_mjcf import SOLVER_ITERATIONS, SOLVER_TOLERANCE
 from .point_masses import POINT_INERTIA
 
@@ -113,6 +115,9 @@ def _elasticity_xml(mesh, damping: float) -> str:
     young, poisson = flex_constants(mesh)
     out = (f'<elasticity young="{young!r}" poisson="{poisson!r}" '
            f'damping="{float(damping)!r}"')
+    if mesh.material.plasticity is not None:  # fem_yield: refused unless it maps
+        out += f' yield="{yield_strain(mesh)!r}"'
+
     if isinstance(mesh, TriangleMesh):
         out += f' thickness="{mesh.thickness!r}" elastic2d="stretch"'
     return out + "/>"
@@ -193,6 +198,7 @@ def check_model(model, layout, rayleigh: float, alpha: float) -> None:
                            mesh.positions[mesh.pinned]) and
             np.array_equal(axes, np.broadcast_to(np.eye(3)[:layout.dof], axes.shape)) and
             model.flex_damping[0] == rayleigh and not model.dof_damping.any() and
+            np.array_equal(model.flex_yield[0], [yield_strain(mesh), 0.0]) and
             model.flex_edgestiffness[0] == 0 and model.flex_edgedamping[0] == 0 and
             not model.dof_armature.any() and model.ntendon == n_tendons and
             not model.tendon_stiffness.any() and

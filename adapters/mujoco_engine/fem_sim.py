@@ -15,6 +15,7 @@ import numpy as np
 
 from .fem_mjcf import FemLayout, check_model, fem_model, flex_constants, mesh_of, vertex_dofs
 from .fem_settle import Settle, settle_plan
+from .fem_yield import describe
 from .point_masses import POINT_INERTIA
 from .sim import BAD_WARNINGS, MujocoSim
 
@@ -114,6 +115,7 @@ class MujocoFemSim(MujocoSim):
             "plane": self._plane(),
             "flex_young": young, "flex_poisson": poisson,
             "thickness": mesh.thickness if layout.triangles else None,
+            "plasticity": describe(mesh),
             "rayleigh_damping": self.rayleigh, "edge_stiffness": 0.0, "edge_damping": 0.0,
             "mass": "refsim's lumped rho V / (d + 1) per free vertex body (set in the "
                     "MjSpec), instead of flexcomp's equal split",

@@ -6,9 +6,12 @@ bodies (flexcomp's own split is equal per vertex: settings `mass_split`).
 
 The law: MuJoCo's flex implements St Venant-Kirchhoff on linear elements only (Green strain
 E = 1/2 (F^T F - I), energy mu tr(E^2) + lambda/2 tr(E)^2): refsim's "green". The other strain
-measures (linear, corotated, neo_hookean) are refused with that reason; so are plasticity (flex
-`yield` is not mapped here), Poisson ratios outside MuJoCo's [0, 0.5) and triangle meshes
-outside a z = const plane (dof="2d" moves in x and y). Plane strain runs on the plane-stress
+measures (linear, corotated, neo_hookean) are refused with that reason; so are Poisson ratios
+outside MuJoCo's [0, 0.5) and triangle meshes outside a z = const plane (dof="2d" moves in x
+and y). Plasticity on tetrahedra runs as the flex's `yield` (ideal von Mises on the Green
+strain, eps_y = sigma_y / (3 mu); what differs from refsim's rule: adapters/mujoco_engine/
+fem_yield.py and settings `plasticity`); hardening, triangles and static scenes with
+plasticity are refused (fem_yield.yield_reason). Plane strain runs on the plane-stress
 flex with E' = E / (1 - nu^2), nu' = nu / (1 - nu): the same in-plane StVK law (nu < 1/3).
 
 Two ways to run it, chosen by the scene as in the in-house group:
@@ -80,13 +83,14 @@ def claims(scene) -> bool:
     return _mesh(scene) is not None
 
 
-def _mesh_reason(mesh) -> str | None:
+def _mesh_reason(mesh, static) -> str | None:
     from ..fem_mjcf import constants_reason, plane_reason
+    from ..fem_yield import yield_reason
     if mesh.material.strain != "green":
         return LAW_REASON.format(strain=repr(mesh.material.strain))
-    if mesh.material.plasticity is not None:
-        return (f"{WHO}: plasticity is not mapped (MuJoCo's flex yield is ideal von Mises on "
-                "its own strain; not matched to refsim's rule yet)")
+    reason = yield_reason(mesh, static)
+    if reason:
+        return reason
     if len(mesh.pinned) == len(mesh):
         return f"{WHO}: every node pinned, nothing to simulate"
     return plane_reason(mesh) or constants_reason(mesh)
@@ -96,10 +100,10 @@ def supports(engine, scene, integrator):
     if scene.part_kinds() != {"meshes"}:
         return (f"{WHO}: one mesh alone, got also "
                 f"{', '.join(sorted(scene.part_kinds() - {'meshes'}))}")
-    reason = _mesh_reason(_mesh(scene))
+    static = scene.meta.get("solve") == "static"
+    reason = _mesh_reason(_mesh(scene), static)
     if reason:
         return reason
-    static = scene.meta.get("solve") == "static"
     name = spec_name(integrator)
     if name in REFUSED:
         return REFUSED[name]
