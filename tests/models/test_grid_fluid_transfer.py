@@ -14,7 +14,8 @@ from ulp import assert_ulp
 
 from refsim.models.grid_fluid import transfer_theory as th
 from refsim.models.grid_fluid.transfer import (KERNELS, SCHEMES, MacLayout, TransferScheme,
-                                               g2p, p2g, stencils)
+                                               g2p, p2g, parse_transfer, stencils,
+                                               transfer_info)
 
 EPS = np.finfo(float).eps
 N = 32
@@ -218,3 +219,10 @@ def test_empty_faces_and_bad_input():
         TransferScheme("mpm")
     with pytest.raises(ValueError, match="alpha"):
         TransferScheme("blend", alpha=1.5)
+    for scheme in ALL + [TransferScheme("blend", "bilinear", 0.5)]:
+        assert parse_transfer(scheme.spec) == scheme
+    assert transfer_info("blend_bilinear:0.9")["flip_fraction"] == 0.9
+    assert transfer_info("sl_linear:rk2") is None
+    for bad in ("apic", "apic_quadratic_bspline:0.5", "blend_bilinear:x", "blend_bilinear:2"):
+        with pytest.raises(ValueError, match="transfer scheme|alpha"):
+            parse_transfer(bad)

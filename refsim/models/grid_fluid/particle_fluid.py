@@ -106,6 +106,18 @@ class ParticleFluid:
         self.p = np.zeros((grid.nx, grid.ny))
         self.info: dict = {}
 
+    @classmethod
+    def from_scene(cls, scene, scheme: TransferScheme, method: str = "direct"):
+        """From a scene of one `FluidGrid` (geometry, walls, gravity switch, rtol) and one
+        `Particles` part (the fluid's particles: x, v, masses; z ignored); the particle
+        advection from scene.meta["particle_advection"] (default "rk2_grid")."""
+        from refsim.scene import FluidGrid, Particles
+        part, particles = scene.part(FluidGrid), scene.part(Particles)
+        gravity = np.asarray(scene.gravity, float)[:2] if part.gravity else (0.0, 0.0)
+        return cls(MacGrid.of(part), scheme, particles.position, particles.velocity,
+                   particles.mass, gravity, method, part.rtol,
+                   scene.meta.get("particle_advection", ADVECTIONS[0]))
+
     def grid_forces(self, field: FaceField, dt: float) -> tuple:
         """Steps 3 to 5: the body force and projection on the faces the projection owns; the
         other faces keep their P2G velocity where particles gave them mass, the rest take

@@ -119,6 +119,44 @@ class TransferScheme:
         name = f"blend{self.alpha:g}" if self.name == "blend" else self.name
         return f"{name}_{self.kernel}"
 
+    @property
+    def spec(self) -> str:
+        """The scheme's name as an integrator spec (`parse_transfer` reads it back)."""
+        tail = f":{self.alpha:g}" if self.name == "blend" else ""
+        return f"{self.name}_{self.kernel}{tail}"
+
+
+TRANSFER_SPECS = tuple(f"{s}_{k}" for s in SCHEMES for k in KERNELS)
+
+
+def parse_transfer(spec: str) -> TransferScheme:
+    """"<scheme>_<kernel>[:alpha]" -> TransferScheme, e.g. "apic_quadratic_bspline",
+    "blend_bilinear:0.95" (alpha, the FLIP fraction, only for the blend; default 0.95)."""
+    name, _, arg = str(spec).partition(":")
+    if name not in TRANSFER_SPECS or (arg and not name.startswith("blend_")):
+        raise ValueError(f"transfer scheme must be one of {list(TRANSFER_SPECS)} (the blend "
+                         f"optionally :alpha), got {spec!r}")
+    scheme, kernel = name.split("_", 1)
+    try:
+        alpha = float(arg) if arg else 0.95
+    except ValueError:
+        raise ValueError(f"blend alpha must be a number in [0, 1], got {spec!r}") from None
+    return TransferScheme(scheme, kernel, alpha)
+
+
+def transfer_info(spec) -> dict | None:
+    """The method a transfer spec names, in refsim.integrators.method_info's form (order 1
+    in dt: the particle-fluid step is an operator splitting, particle_fluid's docstring),
+    plus its kernel and FLIP fraction; None for another name."""
+    try:
+        scheme = parse_transfer(spec)
+    except ValueError:
+        return None
+    return {"name": scheme.spec, "order": 1.0, "symplectic": False, "implicit": False,
+            "adaptive": False, "family": "particle-in-cell transfer with a pressure "
+            "projection (operator splitting)", "kernel": scheme.kernel,
+            "flip_fraction": scheme.flip_fraction}
+
 
 class Stencil(NamedTuple):
     """One face component's stencil for n particles and S = k^2 nodes each.
