@@ -34,6 +34,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .tensors import (cofactor, cofactor_differential, components, ddot, identity, new_like,
+                      rotation_variant_svd, trace, trace_minus, transposed)
+
 LAW_NAMES = ("linear", "green", "corotated", "neo_hookean")
 
 
@@ -57,53 +60,6 @@ def neo_hookean_parameters(mu_lame, lam_lame, d):
                          f"lam_L + (1 - 2/(d(d+1))) mu_L > 0 (in plane stress nu > -1/2), "
                          f"got lam = {lam:g}")
     return mu, lam, 1.0 + d * mu / ((d + 1) * lam)
-
-
-def _t(a):
-    return np.swapaxes(a, -1, -2)
-
-
-def _tr(a):
-    return np.trace(a, axis1=-2, axis2=-1)
-
-
-def _ddot(a, b):
-    return np.sum(a * b, axis=(-2, -1))
-
-
-def _eye(d):
-    return np.eye(d)
-
-
-def rotation_variant_svd(f):
-    """U, s, Vt of F with det U = det V = 1: the last singular value carries det F's sign."""
-    u, s, vt = np.linalg.svd(f)
-    flip = np.linalg.det(u) * np.linalg.det(vt) < 0
-    if np.any(flip):
-        u, s = u.copy(), s.copy()
-        u[flip, :, -1] *= -1.0
-        s[flip, -1] *= -1.0
-    return u, s, vt
-
-
-def cofactor(f):
-    """cof F = J F^-T: 2D [[f11, -f10], [-f01, f00]]; 3D columns (c1 x c2, c2 x c0, c0 x c1)
-    of F's columns c_k. Linear in F in 2D, quadratic in 3D."""
-    if f.shape[-1] == 2:
-        return np.stack([np.stack([f[..., 1, 1], -f[..., 1, 0]], -1),
-                         np.stack([-f[..., 0, 1], f[..., 0, 0]], -1)], -2)
-    c = [f[..., :, k] for k in range(3)]
-    return np.stack([np.cross(c[1], c[2]), np.cross(c[2], c[0]), np.cross(c[0], c[1])], -1)
-
-
-def cofactor_differential(f, df):
-    """d(cof F) in the direction dF."""
-    if f.shape[-1] == 2:
-        return cofactor(df)
-    c = [f[..., :, k] for k in range(3)]
-    dc = [df[..., :, k] for k in range(3)]
-    pairs = ((1, 2), (2, 0), (0, 1))
-    return np.stack([np.cross(dc[i], c[j]) + np.cross(c[i], dc[j]) for i, j in pairs], -1)
 
 
 class Law:
@@ -131,18 +87,28 @@ class Linear(Law):
     name = "linear"
 
     def strain(self, f):
-        return 0.5 * (f + _t(f)) - _eye(f.shape[-1])
+        return 0.5 * (f + transposed(f)) - identity(f.shape[-1])
 
     def energy_density(self, f):
         eps = self.strain(f)
-        return self.mu * _ddot(eps, eps) + 0.5 * self.lam * _tr(eps) ** 2
+        return self.mu * ddot(eps, eps) + 0.5 * self.lam * trace(eps) ** 2
 
     def stress(self, f):
-        eps = self.strain(f)
-        return 2.0 * self.mu * eps + self.lam * _tr(eps)[..., None, None] * _eye(self.d)
+        """2 mu eps + lam tr(eps) I entry by entry (one pass per operation over the elements;
+        the operations of the matrix form, eps_kk = F_kk - 1 and eps_ij = (F_ij + F_ji) / 2)."""
+        d, fc = self.d, components(f)
+        p, pc = new_like(f)
+        two_mu, lt = 2.0 * self.mu, self.lam * trace_minus(fc, d, 1.0)
+        for i in range(d):
+            np.multiply(fc[i, i] - 1.0, two_mu, out=pc[i, i])
+            pc[i, i] += lt
+            for j in range(i + 1, d):
+                np.multiply(0.5 * (fc[i, j] + fc[j, i]), two_mu, out=pc[i, j])
+                pc[j, i] = pc[i, j]
+        return p
 
     def differential(self, f, df):
-        return self.mu * (df + _t(df)) + self.lam * _tr(df)[..., None, None] * _eye(self.d)
+        return self.mu * (df + transposed(df)) + self.lam * trace(df)[..., None, None] * identity(self.d)
 
     def tangent(self, f):
         """The constant C_ijkl = mu (d_ik d_jl + d_il d_jk) + lam d_ij d_kl for every element
@@ -156,21 +122,48 @@ class Green(Law):
     name = "green"
 
     def strain(self, f):
-        return 0.5 * (_t(f) @ f - _eye(f.shape[-1]))
+        return 0.5 * (transposed(f) @ f - identity(f.shape[-1]))
 
     def _pk2(self, e):
-        return 2.0 * self.mu * e + self.lam * _tr(e)[..., None, None] * _eye(self.d)
+        return 2.0 * self.mu * e + self.lam * trace(e)[..., None, None] * identity(self.d)
 
     def energy_density(self, f):
         e = self.strain(f)
-        return self.mu * _ddot(e, e) + 0.5 * self.lam * _tr(e) ** 2
+        return self.mu * ddot(e, e) + 0.5 * self.lam * trace(e) ** 2
 
     def stress(self, f):
-        return f @ self._pk2(self.strain(f))
+        """P = F S, S = 2 mu E + lam tr(E) I, E = (F^T F - I) / 2, entry by entry (one pass per
+        operation over the elements, the matrix form's sums in its order)."""
+        d, fc = self.d, components(f)
+        e = np.empty((d, d) + f.shape[:-2])
+        for i in range(d):
+            for j in range(i, d):  # E is symmetric
+                c = fc[0, i] * fc[0, j]
+                for k in range(1, d):
+                    c += fc[k, i] * fc[k, j]
+                if i == j:
+                    c -= 1.0
+                e[i, j] = c
+                e[i, j] *= 0.5
+        two_mu, lt = 2.0 * self.mu, self.lam * trace_minus(e, d, 0.0)
+        for i in range(d):
+            e[i, i] *= two_mu
+            e[i, i] += lt
+            for j in range(i + 1, d):
+                e[i, j] *= two_mu
+                e[j, i] = e[i, j]
+        p, pc = new_like(f)
+        tmp = np.empty(f.shape[:-2])
+        for i in range(d):
+            for j in range(d):
+                np.multiply(fc[i, 0], e[0, j], out=pc[i, j])
+                for k in range(1, d):
+                    pc[i, j] += np.multiply(fc[i, k], e[k, j], out=tmp)
+        return p
 
     def differential(self, f, df):
         f = f[:, None]
-        de = 0.5 * (_t(df) @ f + _t(f) @ df)
+        de = 0.5 * (transposed(df) @ f + transposed(f) @ df)
         return df @ self._pk2(self.strain(f)) + f @ self._pk2(de)
 
 
@@ -200,15 +193,43 @@ class Corotated(Law):
                                                                         - self.d) ** 2
 
     def stress(self, f):
-        r, s, _ = self._polar(f)
-        return 2.0 * self.mu * (f - r) + self.lam * (np.sum(s, -1) - self.d)[:, None, None] * r
+        """2D entry by entry: with (x, y) = (F00 + F11, F10 - F01), r = |(x, y)| = tr S and
+        (c, s) = (x, y) / r, P = 2 mu F + g R, g = lam (r - 2) - 2 mu, i.e. g c = (lam - 2 (lam
+        + mu) / r) x (R = I, c = 1, where r = 0); r as sqrt(x^2 + y^2) (np.hypot: 25x slower here, an ulp apart).
+        3D: R and s by the SVD (`_polar`)."""
+        if self.d != 2:
+            r, s, _ = self._polar(f)
+            return 2.0 * self.mu * (f - r) + self.lam * (np.sum(s, -1)
+                                                         - self.d)[..., None, None] * r
+        fc = components(f)
+        x, y = fc[0, 0] + fc[1, 1], fc[1, 0] - fc[0, 1]
+        r = x * x
+        r += y * y
+        np.sqrt(r, out=r)
+        with np.errstate(invalid="ignore", divide="ignore"):  # r = 0: fixed below
+            g = np.divide(-2.0 * (self.lam + self.mu), r)  # g / r = lam - 2 (lam + mu) / r
+            g += self.lam
+            x *= g  # g c = (g / r) x
+            y *= g  # g s = (g / r) y
+        if not r.all():  # R = I where r = 0: g c = g, g s = 0
+            zero = r == 0.0
+            x[zero], y[zero] = -2.0 * (self.lam + self.mu), 0.0
+        p, pc = new_like(f)
+        two_mu = 2.0 * self.mu
+        for i, j, term, sign in ((0, 0, x, 1), (1, 1, x, 1), (1, 0, y, 1), (0, 1, y, -1)):
+            np.multiply(fc[i, j], two_mu, out=pc[i, j])
+            if sign > 0:
+                pc[i, j] += term
+            else:
+                pc[i, j] -= term
+        return p
 
     def rotation_differential(self, r, s, vt, df):
         """dR = R W, W skew with W S + S W = A - A^T, A = R^T dF (Sifakis & Barbic sec. 5):
         2D w = (A - A^T)_10 / tr S; 3D axial(W) = (tr S I - S)^-1 axial(A - A^T), with
         tr S I - S = V diag(tr S - s_i) V^T."""
-        a = _t(r) @ df
-        k = a - _t(a)
+        a = transposed(r) @ df
+        k = a - transposed(a)
         if self.d == 2:
             w = k[..., 1, 0] / np.sum(s, -1)
             zero = np.zeros_like(w)
@@ -226,9 +247,9 @@ class Corotated(Law):
     def differential(self, f, df):
         r, s, vt = (None if a is None else a[:, None] for a in self._polar(f))
         dr = self.rotation_differential(r, s, vt, df)
-        trace = (np.sum(s, -1) - self.d)[..., None, None]
-        return (2.0 * self.mu * df + self.lam * _tr(_t(r) @ df)[..., None, None] * r
-                + (self.lam * trace - 2.0 * self.mu) * dr)
+        stretch = (np.sum(s, -1) - self.d)[..., None, None]
+        return (2.0 * self.mu * df + self.lam * trace(transposed(r) @ df)[..., None, None] * r
+                + (self.lam * stretch - 2.0 * self.mu) * dr)
 
 
 class NeoHookean(Law):
@@ -240,22 +261,55 @@ class NeoHookean(Law):
         self.rest_energy = 0.5 * lam * (1.0 - self.alpha) ** 2 - 0.5 * mu * np.log(d + 1.0)
 
     def energy_density(self, f):
-        ic, j = _ddot(f, f), np.linalg.det(f)
+        ic, j = ddot(f, f), np.linalg.det(f)
         return (0.5 * self.mu * (ic - self.d) + 0.5 * self.lam * (j - self.alpha) ** 2
                 - 0.5 * self.mu * np.log1p(ic) - self.rest_energy)
 
     def stress(self, f):
-        ic, j = _ddot(f, f), np.linalg.det(f)
-        return (self.mu * (1.0 - 1.0 / (ic + 1.0)))[:, None, None] * f + (
-            self.lam * (j - self.alpha))[:, None, None] * cofactor(f)
+        """P = a F + b cof F, a = mu I_C / (I_C + 1) (= mu (1 - 1 / (I_C + 1))), b = lam (J -
+        alpha), entry by entry: cof F's entries as products of F's (2D: +-F entries; 3D: the
+        2 x 2 minors, cyclic), J = sum_k F_0k cof_0k."""
+        d, fc = self.d, components(f)
+        ic = fc[0, 0] * fc[0, 0]
+        for i in range(d):
+            for j in range(d):
+                if i or j:
+                    ic += fc[i, j] * fc[i, j]
+        cof = np.empty((d, d) + f.shape[:-2])
+        if d == 2:
+            cof[0, 0], cof[1, 1] = fc[1, 1], fc[0, 0]
+            np.negative(fc[1, 0], out=cof[0, 1])
+            np.negative(fc[0, 1], out=cof[1, 0])
+        else:
+            for i in range(3):
+                i1, i2 = (i + 1) % 3, (i + 2) % 3
+                for j in range(3):
+                    j1, j2 = (j + 1) % 3, (j + 2) % 3
+                    np.multiply(fc[i1, j1], fc[i2, j2], out=cof[i, j])
+                    cof[i, j] -= fc[i1, j2] * fc[i2, j1]
+        b = fc[0, 0] * cof[0, 0]
+        for k in range(1, d):
+            b += fc[0, k] * cof[0, k]
+        b -= self.alpha
+        b *= self.lam
+        a = ic * self.mu
+        ic += 1.0
+        a /= ic
+        p, pc = new_like(f)
+        for i in range(d):
+            for j in range(d):
+                np.multiply(fc[i, j], a, out=pc[i, j])
+                cof[i, j] *= b
+                pc[i, j] += cof[i, j]
+        return p
 
     def differential(self, f, df):
         f = f[:, None]
-        ic, j, cof = _ddot(f, f), np.linalg.det(f), cofactor(f)
+        ic, j, cof = ddot(f, f), np.linalg.det(f), cofactor(f)
         scale = lambda a: a[..., None, None]  # noqa: E731
         return (scale(self.mu * (1.0 - 1.0 / (ic + 1.0))) * df
-                + scale(2.0 * self.mu * _ddot(f, df) / (ic + 1.0) ** 2) * f
-                + scale(self.lam * _ddot(cof, df)) * cof
+                + scale(2.0 * self.mu * ddot(f, df) / (ic + 1.0) ** 2) * f
+                + scale(self.lam * ddot(cof, df)) * cof
                 + scale(self.lam * (j - self.alpha)) * cofactor_differential(f, df))
 
 

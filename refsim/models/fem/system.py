@@ -17,12 +17,20 @@ strain, stored per element in the system (`plastic_strain`) and updated by `comm
 an accepted step (`advance` steps and commits; the steppers themselves have no post-step hook).
 Jacobians: df/dx = -K (the tangent, in world dofs: T^T K T with T the plane basis per node for
 triangles), df/dv = -(alpha M + beta K). One flat state at a time (no batch axes).
+
+`accel` (without beta damping, on the correct nodal force) composes the elements' two sparse
+maps (refsim.models.fem.elements) with the world map T, the pinned nodes and the masses once:
+Ds = E @ (x_free, x_pinned) and a = M^-1 T^T G @ P + M^-1 f_ext - alpha v, so a step is those
+two products and the law's stress. It equals (f(x, v) / m) to round-off (the products sum
+the same terms in another order: tests/models/test_fem_fast.py states the bound).
 """
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
 
+from .tensors import components
+from .model import ElasticBody
 from .printed import body_and_assembler
 
 
@@ -64,6 +72,24 @@ class FemSystem:
         self.linear = self.body.linear
         self.velocity_dependent = bool(self.alpha > 0 or self.beta > 0)
         self._rest = np.array(mesh.positions, float)  # initial; pinned nodes held here
+        self._maps = None  # accel's composed maps, built on its first call
+
+    def _composed_maps(self):
+        """(E, G, a_ext, aug) of `accel` (module docstring): E (d d m, 3 n) on the state
+        augmented by the pinned nodes' positions (aug, its free part refilled per call),
+        G (3 n_free, d d m), a_ext = f_ext / m flat."""
+        elements, n = self.body.elements, self.n_nodes
+        order = np.r_[np.flatnonzero(self.free), np.flatnonzero(~self.free)]
+        dofs = (3 * order[:, None] + np.arange(3)).reshape(-1)
+        augment = sp.csr_matrix((np.ones(3 * n), (dofs, np.arange(3 * n))), shape=(3 * n, 3 * n))
+        edges = (elements.edge_map @ (_world_map(self.body, n) @ augment)).tocsr()
+        edges.eliminate_zeros()
+        inv_m = np.repeat(self.inv_m[:, 0], 3)
+        forces = (sp.diags(inv_m) @ (self.to_local.T @ elements.force_map)).tocsr()
+        forces.eliminate_zeros()
+        aug = np.empty(3 * n)
+        aug[3 * self.nbody:] = self._rest[~self.free].reshape(-1)
+        return edges, forces, self.external.reshape(-1) * inv_m, aug
 
     def describe(self) -> dict:
         return {**self.body.describe(), "free_nodes": self.nbody,
@@ -107,7 +133,19 @@ class FemSystem:
         return f
 
     def accel(self, t, x, v):
-        return (self.forces(x, v) * self.inv_m).reshape(-1)
+        if self.beta > 0 or type(self.body) is not ElasticBody:
+            return (self.forces(x, v) * self.inv_m).reshape(-1)
+        self._one(x)
+        if self._maps is None:
+            self._maps = self._composed_maps()
+        edges, forces, a_ext, aug = self._maps
+        aug[:3 * self.nbody] = x
+        p = self.body.law.stress(self.body.elements.gradient_of_edges(edges @ aug))
+        a = forces @ np.ascontiguousarray(components(p)).reshape(-1)
+        a += a_ext
+        if self.alpha > 0:
+            a -= self.alpha * np.asarray(v, float)
+        return a
 
     def sparse_force_jacobians(self, t, x, v):
         """(df/dx, df/dv) as CSR (3 n_free)^2 force Jacobians for one flat state."""
