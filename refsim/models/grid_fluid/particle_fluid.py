@@ -110,13 +110,18 @@ class ParticleFluid:
     def from_scene(cls, scene, scheme: TransferScheme, method: str = "direct"):
         """From a scene of one `FluidGrid` (geometry, walls, gravity switch, rtol) and one
         `Particles` part (the fluid's particles: x, v, masses; z ignored); the particle
-        advection from scene.meta["particle_advection"] (default "rk2_grid")."""
+        advection from scene.meta["particle_advection"] (default "rk2_grid"); APIC's affine
+        vectors start as scene.meta["velocity_gradient"] (2 x 2, row a = grad of component
+        a: the initial field's gradient where it is affine), else 0."""
         from refsim.scene import FluidGrid, Particles
         part, particles = scene.part(FluidGrid), scene.part(Particles)
         gravity = np.asarray(scene.gravity, float)[:2] if part.gravity else (0.0, 0.0)
-        return cls(MacGrid.of(part), scheme, particles.position, particles.velocity,
-                   particles.mass, gravity, method, part.rtol,
-                   scene.meta.get("particle_advection", ADVECTIONS[0]))
+        sim = cls(MacGrid.of(part), scheme, particles.position, particles.velocity,
+                  particles.mass, gravity, method, part.rtol,
+                  scene.meta.get("particle_advection", ADVECTIONS[0]))
+        if sim.c is not None and "velocity_gradient" in scene.meta:
+            sim.c[:] = np.asarray(scene.meta["velocity_gradient"], float)[:2, :2]
+        return sim
 
     def grid_forces(self, field: FaceField, dt: float) -> tuple:
         """Steps 3 to 5: the body force and projection on the faces the projection owns; the
