@@ -159,44 +159,59 @@ def transfer_info(spec) -> dict | None:
 
 
 class Stencil(NamedTuple):
-    """One face component's stencil for n particles and S = k^2 nodes each.
+    """One face component's stencil for n particles and S = k^2 nodes each, node-major (the
+    particle index last, so that every array operation runs along n; node (i, j) of the
+    k x k block at row i k + j).
 
-    flat (n, S) index into the face array (raveled, C order) of the node or of its mirror;
-    w (n, S) weights; sign (n, S) the mirror's sign (G2P); inside (n, S) node in the array
-    (P2G); d (n, S, 2) x_i - x_p (the node's own position, ghost or not); g (n, S, 2) the
-    affine weights w D^-1 (x_i - x_p); dmat (n, 2) D's diagonal.
+    flat (S, n) index into the face array (raveled, C order) of the node or of its mirror;
+    w (S, n) weights; sign (S, n) the mirror's sign (G2P); inside (S, n) node in the array
+    (P2G); per axis (k, n) (x then y): `wa` the 1D weights, `da` x_i - x_p along the axis
+    (the node's own position, ghost or not), `ga` the 1D affine weights w D^-1 (x_i - x_p)
+    along it (the hat's derivative); dmat (n, 2) D's diagonal. The (S, n, 2) offsets and
+    affine weights are tensor products of these (never formed: `offsets_dot`,
+    `affine_vectors`).
     """
     flat: np.ndarray
     w: np.ndarray
     sign: np.ndarray
     inside: np.ndarray
-    d: np.ndarray
-    g: np.ndarray
+    wx: np.ndarray
+    wy: np.ndarray
+    dx: np.ndarray
+    dy: np.ndarray
+    gx: np.ndarray
+    gy: np.ndarray
     dmat: np.ndarray
+
+    def offsets_dot(self, c: np.ndarray) -> np.ndarray:
+        """(S, n): c_p . (x_i - x_p) for vectors c (n, 2)."""
+        k, n = self.wx.shape
+        return ((c[:, 0] * self.dx)[:, None, :] + (c[:, 1] * self.dy)[None, :, :]).reshape(
+            k * k, n)
 
 
 def _weights_1d(s: np.ndarray, kernel: str):
-    """Nodes (n, k), weights (n, k), offsets in cells node - s (n, k) and the affine weight
-    w D^-1 d per cell (n, k) for particles at s (in cells from node 0) on one axis."""
+    """Nodes (k, n), weights (k, n), offsets in cells node - s (k, n), the affine weight
+    w D^-1 d per cell (k, n) and D (n,) in cells^2 for particles at s (in cells from node 0)
+    on one axis."""
     if kernel == "bilinear":
         base = np.floor(s)
-        f = (s - base)[:, None]
-        off = np.array([0.0, 1.0])
-        w = np.concatenate([1.0 - f, f], axis=1)
-        g = np.broadcast_to(np.array([-1.0, 1.0]), w.shape)  # grad of the hat, in 1/cell
+        f = s - base
+        off = np.array([0.0, 1.0])[:, None]
+        w = np.stack([1.0 - f, f])
+        g = np.repeat(np.array([[-1.0], [1.0]]), len(s), axis=1)  # the hat's slope, 1/cell
     else:
         base = np.floor(s - 0.5)
-        f = (s - base)[:, None]  # in [0.5, 1.5)
-        off = np.array([0.0, 1.0, 2.0])
-        w = np.concatenate([0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2,
-                            0.5 * (f - 0.5) ** 2], axis=1)
+        f = s - base  # in [0.5, 1.5)
+        off = np.array([0.0, 1.0, 2.0])[:, None]
+        w = np.stack([0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2, 0.5 * (f - 0.5) ** 2])
         g = None
-    nodes = base[:, None].astype(np.int64) + off.astype(np.int64)
-    d = off[None, :] - f
-    dd = np.sum(w * d * d, axis=1)  # D in cells^2 (1/4 for the B-spline)
+    nodes = base.astype(np.int64) + off.astype(np.int64)
+    d = off - f
+    dd = np.sum(w * d * d, axis=0)  # D in cells^2 (1/4 for the B-spline)
     if g is None:
-        g = w * d / dd[:, None]
-    return nodes, w, d, np.array(g), dd
+        g = w * d / dd
+    return nodes, w, d, g, dd
 
 
 def _map_axis(nodes: np.ndarray, cells: int, staggered: bool, periodic: bool):
@@ -229,21 +244,14 @@ def stencil(layout: MacLayout, x: np.ndarray, comp: int, kernel: str) -> Stencil
         idx, sign, inside = _map_axis(nodes, layout.cells(d), staggered, layout.periodic[d])
         per_axis.append((idx, sign, inside, w, off * layout.h, g / layout.h, dd * layout.h ** 2))
     (ix, sx, inx, wx, dx, gx, ddx), (iy, sy, iny, wy, dy, gy, ddy) = per_axis
-    n, k = wx.shape
+    k, n = wx.shape
     ny_arr = layout.face_shape(comp)[1]
 
-    def outer(a, b):
-        return (a[:, :, None] * b[:, None, :]).reshape(n, k * k)
-
-    def spread(a, axis):
-        return np.broadcast_to(a[:, :, None] if axis == 0 else a[:, None, :],
-                               (n, k, k)).reshape(n, k * k)
-    w = outer(wx, wy)
-    d = np.stack([spread(dx, 0), spread(dy, 1)], axis=-1)
-    g = np.stack([outer(gx, wy), outer(wx, gy)], axis=-1)
-    return Stencil(flat=(spread(ix, 0) * ny_arr + spread(iy, 1)), w=w, sign=outer(sx, sy),
-                   inside=spread(inx, 0) & spread(iny, 1), d=d, g=g,
-                   dmat=np.stack([ddx, ddy], axis=1))
+    def outer(a, b, op=np.multiply):
+        return op(a[:, None, :], b[None, :, :]).reshape(k * k, n)
+    return Stencil(flat=outer(ix * ny_arr, iy, np.add), w=outer(wx, wy), sign=outer(sx, sy),
+                   inside=outer(inx, iny, np.logical_and), wx=wx, wy=wy, dx=dx, dy=dy,
+                   gx=gx, gy=gy, dmat=np.stack([ddx, ddy], axis=1))
 
 
 def stencils(layout: MacLayout, x: np.ndarray, kernel: str) -> tuple:
@@ -266,11 +274,14 @@ class FaceField(NamedTuple):
 
 
 def _accumulate(layout: MacLayout, comp: int, st: Stencil, values: np.ndarray) -> np.ndarray:
-    """sum_p values[p, s] onto the comp faces (nodes outside the array dropped; a periodic
+    """sum_p values[s, p] onto the comp faces (nodes outside the array dropped; a periodic
     axis' repeated last face set equal to its first)."""
     shape = layout.face_shape(comp)
-    out = np.bincount(st.flat[st.inside], values[st.inside],
-                      minlength=shape[0] * shape[1]).reshape(shape)
+    if st.inside.all():  # no node outside the array: no masked copies
+        flat, values = st.flat.ravel(), values.ravel()
+    else:
+        flat, values = st.flat[st.inside], values[st.inside]
+    out = np.bincount(flat, values, minlength=shape[0] * shape[1]).reshape(shape)
     if layout.periodic[0] and comp == 0:
         out[-1, :] = out[0, :]
     if layout.periodic[1] and comp == 1:
@@ -282,8 +293,8 @@ def p2g_component(layout: MacLayout, st: Stencil, comp: int, vel: np.ndarray, m:
                   c: np.ndarray | None = None) -> tuple:
     """(velocity, mass) of the comp faces from particle velocities vel (n,) and affine
     vectors c (n, 2) (None: PIC/FLIP); empty faces get velocity 0."""
-    mw = m[:, None] * st.w
-    carried = vel[:, None] if c is None else vel[:, None] + np.einsum("nsk,nk->ns", st.d, c)
+    mw = m * st.w
+    carried = vel if c is None else vel + st.offsets_dot(c)
     mass = _accumulate(layout, comp, st, mw)
     momentum = _accumulate(layout, comp, st, mw * carried)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -304,12 +315,16 @@ def p2g(layout: MacLayout, x, vel, m, kernel: str, c=None, sts=None) -> FaceFiel
 
 def interpolate(st: Stencil, field: np.ndarray) -> np.ndarray:
     """sum_i w_ip u_i (mirror signs applied): the field at the particles."""
-    return np.sum(st.sign * st.w * field.ravel()[st.flat], axis=1)
+    return np.sum(st.sign * st.w * field.ravel()[st.flat], axis=0)
 
 
 def affine_vectors(st: Stencil, field: np.ndarray) -> np.ndarray:
     """(n, 2): c_p = sum_i u_i w_ip D_p^-1 (x_i - x_p) (Ding et al.'s MAC APIC)."""
-    return np.einsum("ns,nsk->nk", st.sign * field.ravel()[st.flat], st.g)
+    k, n = st.wx.shape
+    nodes = (st.sign * field.ravel()[st.flat]).reshape(k, k, n)
+    along_y = np.sum(nodes * st.wy[None], axis=1), np.sum(nodes * st.gy[None], axis=1)
+    return np.stack([np.sum(along_y[0] * st.gx, axis=0), np.sum(along_y[1] * st.wx, axis=0)],
+                    axis=1)
 
 
 def g2p(scheme: TransferScheme, sts, new: FaceField, old: FaceField | None, vel) -> tuple:

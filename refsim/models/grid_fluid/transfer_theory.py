@@ -92,8 +92,8 @@ def p2g_energy_loss(sts, field: FaceField, vel, m) -> float:
     total = 0.0
     for a in (0, 1):
         st = sts[a]
-        diff = vel[:, a, None] - _node_values(st, field.velocity(a))
-        total += float(np.sum(m[:, None] * st.w * st.inside * diff * diff))
+        diff = vel[:, a] - _node_values(st, field.velocity(a))
+        total += float(np.sum(m * st.w * st.inside * diff * diff))
     return 0.5 * total
 
 
@@ -105,8 +105,8 @@ def g2p_energy_loss(sts, field: FaceField, m) -> float:
     for a in (0, 1):
         st = sts[a]
         nodes = _node_values(st, field.velocity(a))
-        diff = nodes - interpolate(st, field.velocity(a))[:, None]
-        total += float(np.sum(np.broadcast_to(m, diff.shape[:1])[:, None] * st.w * diff * diff))
+        diff = nodes - interpolate(st, field.velocity(a))
+        total += float(np.sum(m * st.w * diff * diff))
     return 0.5 * total
 
 
@@ -120,7 +120,7 @@ def pic_angular_loss(sts, field: FaceField, m) -> float:
 def rigid_rotation_pic_loss(sts, m, omega: float) -> tuple:
     """(kinetic energy, angular momentum) a PIC round trip loses on a rigid rotation of rate
     omega by the smoothing estimate: omega^2 S and omega S, S = sum_p m_p (D_up,yy + D_vp,xx)."""
-    n = sts[0].w.shape[0]
+    n = sts[0].w.shape[1]
     s = float(np.sum(np.broadcast_to(np.asarray(m, float), (n,))
                      * (sts[0].dmat[:, 1] + sts[1].dmat[:, 0])))
     return omega ** 2 * s, omega * s
