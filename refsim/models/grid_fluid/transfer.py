@@ -34,8 +34,11 @@ What is conserved (derived in `transfer_theory`, measured by the tests):
   (round trip: to round-off), with either kernel. Between transfers the particles move: under
   the quadratic B-spline D_ap is constant, so moving a particle leaves its angular momentum as
   it was; under the hat D_ap changes with the particle's position, so angular momentum is kept
-  across each transfer but not across particle motion (the abstract of Ding et al. says the
-  multilinear MAC form of Jiang et al. 2015 did not conserve it; they use smooth B-splines).
+  across each transfer but not across particle motion. Source: only the paper's abstract was
+  read (it extends Jiang et al. 2015's multilinear MAC transfers to smooth basis functions
+  and says they conserve angular momentum, "something which eluded" Jiang et al.); the
+  D-weighted particle angular momentum above and both kernels' statements are derived here
+  and measured by tests/models/test_grid_fluid_transfer*.py.
 - PIC's G2P loses exactly the affine term APIC keeps: sum_p m_p [(D_v c_v)_x - (D_u c_u)_y]
   with c from the grid (`transfer_theory.pic_angular_loss`).
 Walls: the stencil's nodes outside the array are dropped in P2G (the faces inside keep
