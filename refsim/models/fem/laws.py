@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tensors import (cofactor, cofactor_differential, components, ddot, identity, new_like,
-                      rotation_variant_svd, trace, trace_minus, transposed)
+from .tensors import (by_components, cofactor, cofactor_differential, components, ddot, identity,
+                      new_like, rotation_variant_svd, trace, trace_minus, transposed)
 
 LAW_NAMES = ("linear", "green", "corotated", "neo_hookean")
 
@@ -332,7 +332,13 @@ class PlaneStrain(Law):
         return self.law.energy_density(self._pad(f, 1.0))
 
     def stress(self, f):
-        return self.law.stress(self._pad(f, 1.0))[..., :2, :2]
+        """The 3D law's stress at diag(F, 1) (padded with component-wise memory, so that the
+        law's entry-by-entry passes run over contiguous entries), its in-plane block."""
+        pad = by_components(3, f.shape[:-2])
+        pc = components(pad)
+        pc[:2, 2], pc[2, :2], pc[2, 2] = 0.0, 0.0, 1.0
+        pc[:2, :2] = components(f)
+        return self.law.stress(pad)[..., :2, :2]
 
     def differential(self, f, df):
         return self.law.differential(self._pad(f, 1.0), self._pad(df, 0.0))[..., :2, :2]
