@@ -170,6 +170,23 @@ class Transfers(Case):
         key = self.observed(p)[0]
         return np.abs(np.asarray(observed[key]) - np.asarray(reference[key]))
 
+    def energy(self, p, obs):
+        """Kinetic energy (J per m of depth), plus m g y in the tank: conserved by the exact
+        flows (rigid rotation, rest)."""
+        m = self.particles(p)[2][0]  # every particle has the mass h^2 / 4
+        x, v = np.asarray(obs["x"], float), np.asarray(obs["v"], float)
+        kinetic = 0.5 * m * np.sum(v[..., :2] ** 2, axis=(-1, -2))
+        if p["flow"] == "rotation":
+            return kinetic
+        return kinetic + m * p["g"] * np.sum(x[..., 1], axis=-1)
+
+    def energy_scale(self, p):
+        """KE(0) (rotation); M g H / 2 (tank: its potential energy about the floor)."""
+        x, v, m = self.particles(p)
+        if p["flow"] == "rotation":
+            return 0.5 * float(np.sum(m * np.sum(v * v, axis=1)))
+        return float(np.sum(m)) * p["g"] * p["depth"] / 2
+
     def extra_metrics(self, p, obs, observed, reference):
         if p["flow"] == "still_tank":
             return {}

@@ -27,7 +27,13 @@ def run(variant, spec):
         obs["x"].append(sim.observe()["x"])
         obs["v"].append(sim.observe()["v"])
     t = np.arange(CASE.samples + 1) * stride * p["dt"]
-    observed = CASE.observables(p, {k: np.array(v) for k, v in obs.items()})
+    stacked = {k: np.array(v) for k, v in obs.items()}
+    energy = CASE.energy(p, stacked)
+    assert abs(energy[0] / CASE.energy_scale(p) - 1) < 0.05  # seeded M vs rho area: ~1 %
+    if p["flow"] == "rotation":  # the energy is the kinetic energy the error compares
+        np.testing.assert_allclose(energy / energy[0], CASE.observables(p, stacked)[
+            "ke_ratio"], rtol=1e-14)  # same sums in another order
+    observed = CASE.observables(p, stacked)
     err = CASE.error(p, observed, CASE.reference(p, t))
     return p, observed, err, CASE.tolerance(p, spec, 1, p["dt"])[0]
 
