@@ -1,7 +1,7 @@
 """The taichi engine: who it is (name, package, dimensions, steppers) and why it refuses what no
 model group runs (`refusals`). What it runs is its model groups (groups/): particles, spheres,
 sph, rigid, pivots, gravity_pairs, lennard_jones, flocking, emitter, first_order_fields,
-spring_network, grid_evolution, grid_poisson, fem."""
+spring_network, grid_evolution, grid_poisson, fem, grid_fluids."""
 from __future__ import annotations
 
 from refsim.engine import Engine
@@ -22,9 +22,7 @@ class TaichiEngine(Engine):
     integrators = INTEGRATORS
     refusals = {"rigid_shapes": "taichi's rigid kernels have no frictional contact (they "
                                 "follow the slides' rigid-body model: Newton-Euler and the "
-                                "orientation)",
-                "fluid_grids": ("taichi's grid-fluid kernels (MAC grid, semi-Lagrangian "
-                                "advection, projection) are not written yet")}
+                                "orientation)"}
 
     def available(self) -> bool:
         try:
