@@ -20,7 +20,8 @@ The splitting's own loss on a rigid rotation (omega, step theta = omega dt): the
 carry their velocity unrotated while they move, and the projection removes its radial part.
 Under "rk2_grid" a particle moves along its circle (radius error theta^4 / 8 a step), so its
 velocity keeps cos(theta) of itself tangentially: KE x cos^2(theta) and L x cos(theta) per
-step (the pressure is central: no torque puts it back). Under "particle" the displacement is
+step from the second on (the first projects the exact rigid field before any particle has
+moved; the pressure is central: no torque puts it back). Under "particle" the displacement is
 parallel to v_p, so x_p x v_p is unchanged (APIC's transfers keep the rest): L is kept up to
 the discrete projection's torque, while each radius grows by sqrt(1 + theta^2), I by
 (1 + theta^2) and KE = L^2 / (2 I) falls by 1 / (1 + theta^2) per step. Both are first order
