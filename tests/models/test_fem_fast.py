@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from refsim.models.fem.elements import Elements, edge_matrices
-from refsim.models.fem.laws import LAW_NAMES, cofactor, make_law
+from refsim.models.fem.laws import LAW_NAMES, cofactor, make_law, plane_corotated_stress
 from refsim.models.fem.meshes import box_tetrahedra, perturb_interior, rectangle_triangles
 from refsim.models.fem.system import FemSystem
 from refsim.models.fem.tensors import by_components, components
@@ -97,6 +97,24 @@ def test_corotated_stress_of_a_collapsed_element_takes_r_equal_to_the_identity()
     want = matrix_stress(law, f)
     assert np.all(np.abs(law.stress(f) - want) <= 32 * EPS * stress_scale(law, f)[:, None, None])
     assert np.all(np.isfinite(law.stress(f)))
+
+
+def test_plane_strain_corotated_takes_the_closed_form_where_det_f_is_positive():
+    # det F > 0: diag(F, 1) = diag(R, 1) diag(S, 1) is THE polar decomposition, so the 3D
+    # law's stress is the 2D closed form with the 3D constants (round-off apart); det F <= 0
+    # (inverted, with sigma_2 above and below 1, and collapsed): the 3D SVD on those elements,
+    # the same operations as the matrix form
+    law = make_law("corotated", 1000.0, 0.3, 2, "strain")
+    upright = random_gradients(2, seed=7)
+    flipped = np.array([[[2.0, 0.0], [0.0, -1.5]], [[0.5, 0.1], [0.0, -0.3]],
+                        [[1.0, 2.0], [0.5, 1.0]]])  # det -3, -0.15, 0
+    f = np.concatenate([upright, flipped])
+    got, want = law.stress(f), matrix_stress(law, f)
+    bound = 32 * EPS * stress_scale(law, f)[:, None, None]
+    assert np.all(np.abs(got - want)[:-3] <= bound[:-3])
+    assert np.array_equal(got[-3:], want[-3:])
+    closed = plane_corotated_stress(flipped[:2], law.mu, law.lam)
+    assert np.abs(closed - want[-3:-1]).max() > 100.0  # the flipped z axis matters there
 
 
 def irregular(d, seed=1):
