@@ -42,6 +42,13 @@ SOLVER = ("the triplets of M + h^2 K (K = -df/dx from the kernel's closed-form d
           "SimplicialLDLT, AMD ordering, f64): pattern analysed once per Sim, one numeric "
           "factorisation per step")
 
+# measured (taichi 1.7.4, plastic_set's one tetrahedron, 500 launches of `forces`, machine
+# loaded: load average 7.7 on 2 cores): taichi's Python-side argument setup of the mesh's
+# 15-field argpack dominates a launch
+LAUNCH_COST = ("each kernel launch costs about 0.55 ms of Python-side argpack setup (measured "
+               "on a loaded 2-core machine): on small meshes the rows' us/step are mostly the "
+               "1 + Newton iterations (implicit_euler) or 2 (baraff_witkin) launches a step")
+
 
 class FemImplicitSim(Sim):
     """A dynamic mesh stepped by implicit_euler or baraff_witkin (module docstring)."""
@@ -159,7 +166,8 @@ class FemImplicitSim(Sim):
         return {"integrator": {**described, "native": NATIVE[self.integrator]},
                 **base_settings(self), "solver": SOLVER, **newton,
                 "time_loop": "one Python iteration per step (and per Newton iteration): "
-                             "forces and assembly kernels, factorisation, solve"}
+                             "forces and assembly kernels, factorisation, solve; "
+                             + LAUNCH_COST}
 
     def close(self):
         self.builder = self.solver = self._step = None
