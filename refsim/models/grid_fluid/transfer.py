@@ -156,8 +156,8 @@ def transfer_info(spec) -> dict | None:
     except ValueError:
         return None
     return {"name": scheme.spec, "order": 1.0, "symplectic": False, "implicit": False,
-            "adaptive": False, "family": "particle-in-cell transfer with a pressure "
-            "projection (operator splitting)", "kernel": scheme.kernel,
+            "adaptive": False, "family": "particle-in-cell transfers around a pressure "
+            "solve (operator splitting)", "kernel": scheme.kernel,
             "flip_fraction": scheme.flip_fraction}
 
 
