@@ -156,7 +156,7 @@ def transfer_info(spec) -> dict | None:
     except ValueError:
         return None
     return {"name": scheme.spec, "order": 1.0, "symplectic": False, "implicit": False,
-            "adaptive": False, "family": "particle-in-cell transfers around a pressure "
+            "adaptive": False, "family": "particle-in-cell transfer around a pressure "
             "solve (operator splitting)", "kernel": scheme.kernel,
             "flip_fraction": scheme.flip_fraction}
 
