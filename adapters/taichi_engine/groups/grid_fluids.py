@@ -124,8 +124,9 @@ class FluidState:
         self.fk.pad(a, out, staggered[0], staggered[1], int(px), int(py), 0, 0.0, 0.0, 0.0,
                     top)
 
-    def step(self):
-        """advect, force, viscosity, boundaries, project (FluidSolver.step)."""
+    def advect(self):
+        """(un, vn): u, v advected by themselves over dt (advection.advect_faces: ghost
+        layers, departure points, interpolation, then the walls and periodic copies)."""
         fk, dt, geo = self.fk, self.dt, self.geo
         self._pad(self.u, self.pu, (1, 0), self.part.lid)
         self._pad(self.v, self.pv, (0, 1), 0.0)
@@ -133,7 +134,12 @@ class FluidState:
         fk.advect(self.pu, self.pu, self.pv, self.un, geo, dt, 1, 0, interp, stepper)
         fk.advect(self.pv, self.pu, self.pv, self.vn, geo, dt, 0, 1, interp, stepper)
         fk.force_and_walls(self.un, self.vn, self.su, self.sv, geo, 0.0, 0.0, 0, 1, 0)
-        u, v = self.un, self.vn  # advected (advect_faces' boundaries applied)
+        return self.un, self.vn
+
+    def step(self):
+        """advect, force, viscosity, boundaries, project (FluidSolver.step)."""
+        fk, dt, geo = self.fk, self.dt, self.geo
+        u, v = self.advect()
         if self.force.any():
             fk.force_and_walls(u, v, self.su, self.sv, geo, dt * self.force[0],
                                dt * self.force[1], 1, 0, 0)
