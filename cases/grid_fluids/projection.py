@@ -44,7 +44,7 @@ QUANTUM = 2.0 ** -40  # psi's grid: differences and quotients by h = 2^-k exact
 
 
 class Projection(SteadyCase):
-    name = "projection"
+    name = "projection_manufactured"
     description = ("MAC pressure projection of a manufactured u_df + G phi (u_df a discrete "
                    "curl, exactly divergence-free): u_df recovered to the solver's tolerance, "
                    "walls and periodic box, per solver")
@@ -68,7 +68,7 @@ class Projection(SteadyCase):
     def grid(p) -> MacGrid:
         n = int(p["n"])
         if n != p["n"] or n & (n - 1):
-            raise ValueError(f"projection.n must be a power of 2, got {p['n']}")
+            raise ValueError(f"projection_manufactured.n must be a power of 2, got {p['n']}")
         periodic = p["sides"] == "periodic"
         return MacGrid(n, n, 1.0 / n, (periodic, periodic))
 

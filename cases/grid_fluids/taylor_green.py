@@ -44,8 +44,8 @@ numerical viscosity gives, RMS_0 |A(t) - exp(-2 nu k^2 t)| at worst over the run
 dA/dt = -2 k^2 (nu + nu_num(A)) A: the splitting part falls as A^2, the bilinear one about as
 A), times a safety factor 1.5 for the mode's distortion and the higher-order terms (the
 measured error over the deficit alone: 1.00-1.08 on 16^2 to 64^2, every scheme), plus
-round-off. A semi-Lagrangian scheme has no convergence order in dt at a fixed h (the interpolation error h^2 per step
-accumulates as h^2 / dt), hence order_meaningful False; its orders are checked on
+round-off. A semi-Lagrangian scheme has no convergence order in dt at a fixed h (the
+interpolation error h^2 per step accumulates as h^2 / dt), hence order_meaningful False; its orders are checked on
 nu_numerical across grids (tests/cases/test_grid_fluids_taylor_green.py). Finer grids by name.
 """
 from __future__ import annotations

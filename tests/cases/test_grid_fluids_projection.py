@@ -8,7 +8,7 @@ from refsim.models.grid_fluid.mac import divergence
 from refsim.models.grid_fluid.projection import METHODS, PressureSystem
 from refsim.registry import get_case
 
-CASE = get_case("projection")
+CASE = get_case("projection_manufactured")
 
 
 @pytest.mark.parametrize("variant", ["walls", "periodic", "walls_64"])

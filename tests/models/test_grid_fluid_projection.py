@@ -109,3 +109,33 @@ def test_free_surface_cells_hold_zero_pressure_and_solid_faces_stay_fixed():
 def test_unknown_method_is_refused():
     with pytest.raises(ValueError, match="projection method must be one of"):
         PressureSystem(MacGrid(4, 4, 0.25)).solve(np.ones(16), "jacobi")
+
+
+def test_multigrid_preconditioner_is_symmetric_and_its_iterations_do_not_grow_with_n():
+    from refsim.models.grid_fluid.projection_mg import CellMultigrid
+    grid = MacGrid(16, 12, 1.0 / 16, (True, False))
+    mg = CellMultigrid(grid)
+    rng = np.random.default_rng(10)
+    r1, r2 = rng.standard_normal(192), rng.standard_normal(192)
+    r1 -= r1.mean()
+    r2 -= r2.mean()
+    a, b = r2 @ mg.precondition(r1), r1 @ mg.precondition(r2)
+    # symmetric V-cycle (R = P^T / 4, adjoint sweeps): equal up to the rounding of two
+    # different operation orders through ~levels x sweeps array passes
+    assert abs(a - b) <= 1e-12 * (abs(a) + abs(b))
+    counts = []
+    for n in (32, 128):
+        g = MacGrid(n, n, 1.0 / n)
+        u, v = _random_faces(g, rng)
+        counts.append(PressureSystem(g).project(u, v, 0.1, "multigrid", 1e-10)[3]["iterations"])
+    assert max(counts) <= 12 and counts[1] <= counts[0] + 2, counts  # measured 8 and 8
+
+
+def test_multigrid_refuses_marks_and_odd_grids_with_the_reason():
+    marks = np.zeros((8, 8), np.int8)
+    marks[:, 6:] = AIR
+    with pytest.raises(ValueError, match="grids of fluid cells only"):
+        PressureSystem(MacGrid(8, 8, 0.125), marks).solve(np.ones(48), "multigrid")
+    with pytest.raises(ValueError, match="cells per axis even"):
+        PressureSystem(MacGrid(9, 8, 0.125)).solve(np.ones(72) - 1 + np.arange(72) % 2,
+                                                    "multigrid")

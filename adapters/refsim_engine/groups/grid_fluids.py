@@ -10,8 +10,9 @@ Two ways to run it, chosen by the scene:
   semi_lagrangian: names and orders): a step advects (semi-Lagrangian), adds the body force
   (the scene's gravity where the part asks), applies viscosity (the part's viscosity_scheme,
   explicit or implicit) and projects.
-Formulations: the projection's solver, "direct" (SuperLU, the default), "cg", "pyamg", each to
-the part's rtol on the true relative residual; a projection that does not reach it is an
+Formulations: the projection's solver, "direct" (SuperLU, the default), "cg", "pyamg",
+"multigrid" (MGPCG, where the grid is all fluid with even cell counts), each to the part's
+rtol on the true relative residual; a projection that does not reach it is an
 engine failure (status `failed`).
 
 Observes "grid.u" (nx + 1, ny), "grid.v" (nx, ny + 1) (m/s), "grid.p" (nx, ny) (kinematic
@@ -26,6 +27,7 @@ from refsim.engine import EngineFailure, ModelGroup, Sim
 from refsim.integrators.semi_lagrangian import SCHEMES, parse_scheme, scheme_info
 from refsim.integrators.spec import spec_name
 from refsim.models.grid_fluid.projection import METHODS
+from refsim.models.grid_fluid.projection_mg import multigrid_reason
 from refsim.models.grid_fluid.solver import FluidSolver
 from refsim.scene import FluidGrid
 
@@ -66,6 +68,11 @@ def supports(engine, scene, integrator):
 
 
 def formulations(engine, scene):
+    """The projection solvers; "multigrid" where its hierarchy applies (fluid cells only, even
+    counts)."""
+    part = scene.part(FluidGrid)
+    if multigrid_reason(part.shape, part.marks):
+        return tuple(m for m in METHODS if m != "multigrid")
     return METHODS
 
 

@@ -26,10 +26,14 @@ rtol ||b||_2 on the TRUE residual, restarting from the iterate at most MAX_RESTA
 - "pyamg": pyamg.smoothed_aggregation_solver with CG acceleration on A, pinned as for
   "direct" where singular (on the singular A itself its CG stopped on an "indefinite
   preconditioner" above the target); its hierarchy built once per grid.
+- "multigrid": CG preconditioned by one symmetric V-cycle of an in-house cell-centred
+  geometric multigrid (refsim.models.grid_fluid.projection_mg: MGPCG), for grids of fluid
+  cells only with even cell counts; hierarchy built once per grid.
 Why not refsim.models.poisson_solvers directly: its problems are vertex-centred with every
 side Dirichlet (PoissonProblem takes a `Grid` and its free points), and its geometric
 multigrid coarsens 2^k + 1 vertex grids; the MAC pressure is cell-centred, Neumann or
-periodic, singular. The solver options and the true-residual criterion are the same.
+periodic, singular. The SuperLU options, the iteration caps and the true-residual criterion
+are theirs (imported).
 """
 from __future__ import annotations
 
@@ -43,8 +47,9 @@ from refsim.models.poisson_solvers import MAX_CYCLES, MAX_RESTARTS, SUPERLU_OPTI
 from refsim.scene.fluid_grid import AIR, FLUID, SOLID
 
 from .mac import MacGrid, divergence
+from .projection_mg import CellMultigrid, mgpcg, multigrid_reason
 
-METHODS = ("direct", "cg", "pyamg")
+METHODS = ("direct", "cg", "pyamg", "multigrid")
 SOLVER_TEXT = {
     "direct": "scipy.sparse.linalg.splu (SuperLU) of A = G^T G, symmetric mode, MMD_AT_PLUS_A "
               "ordering; one cell pinned where A is singular; factorised once per grid",
@@ -52,6 +57,8 @@ SOLVER_TEXT = {
           "preconditioner",
     "pyamg": "pyamg.smoothed_aggregation_solver(A, one cell pinned where singular).solve(r, "
              "accel='cg') on the residual, hierarchy built once per grid",
+    "multigrid": "in-house cell-centred geometric multigrid as CG's preconditioner (MGPCG, "
+                 "refsim.models.grid_fluid.projection_mg), hierarchy built once per grid",
 }
 
 
@@ -213,6 +220,15 @@ class PressureSystem:
                                maxiter=MAX_CYCLES, residuals=residuals)
             return x + dx, len(residuals) - 1
         return once, 0.0
+
+    def _multigrid(self, b, target):
+        if "mg" not in self._cache:
+            reason = multigrid_reason(self.grid.cells, self.marks)
+            if reason:
+                raise ValueError(reason)
+            self._cache["mg"] = CellMultigrid(self.grid, singular=self.singular)
+        mg = self._cache["mg"]
+        return (lambda x: mgpcg(self.A, b, x, mg, target, MAX_CYCLES)), 0.0
 
     def project(self, u, v, dt, method="direct", rtol=1e-10):
         """(u, v, p, info): the projected face velocities, the kinematic pressure (nx, ny; 0

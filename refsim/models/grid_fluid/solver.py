@@ -9,13 +9,15 @@ Step (operator splitting, Chorin's projection method as in Stam 1999 / Bridson 2
 
 Scheme names (the engines' integrators, refsim.integrators.semi_lagrangian: parse_scheme,
 scheme_info): "sl_<interpolant>[:<backtrace>]", interpolant one of linear, cubic,
-cubic_clamped and backtrace one of euler, rk2 (the default), rk3, e.g. "sl_linear:rk2". Orders: the splitting is first order in dt (order 1, every scheme: the
-advection, viscous and pressure substeps do not commute); the backtrace is of order 1, 2 or 3
+cubic_clamped and backtrace one of euler, rk2 (the default), rk3, e.g. "sl_linear:rk2".
+Orders: the splitting is first order in dt (order 1, every scheme: the advection, viscous and
+pressure substeps do not commute); the backtrace is of order 1, 2 or 3
 in dt along the characteristic; the interpolation errs by O(h^2) (linear) or O(h^3) (cubic)
 per step, O(h^(p+1) / dt) over a unit time; the viscous and pressure operators are second
-order in h. On a flow that is a steady solution of the Euler equations (Taylor-Green) the
-splitting error is zero to leading order and the interpolation's dissipation dominates: the
-numerical viscosity ~ C h^(p+1) / dt (measured in cases/grid_fluids/taylor_green.py).
+order in h. On the Taylor-Green vortex (a steady solution of the Euler equations) both show
+as numerical viscosity: the splitting's U^2 dt / 8 (advecting through the frozen u^n, then
+projecting) and the bilinear interpolant's ~0.225 U h (cases/grid_fluids/taylor_green.py
+derives and measures them).
 """
 from __future__ import annotations
 
@@ -29,6 +31,9 @@ from . import advection
 from .mac import MacGrid, divergence, enforce_boundaries
 from .projection import PressureSystem
 from .viscosity import Viscosity
+
+__all__ = ["DEFAULT_BACKTRACE", "SCHEMES", "SPLITTING_ORDER", "FluidSolver", "parse_scheme",
+           "scheme_info"]  # the scheme names re-exported beside the solver
 
 
 class FluidSolver:

@@ -24,7 +24,8 @@ def _scene(meta=None, dim=2, n=8):
 def test_offers_the_schemes_and_the_projection_solvers():
     scene = _scene()
     assert ENGINE.supports(scene) is None
-    assert ENGINE.formulations(scene) == ("direct", "cg", "pyamg")
+    assert ENGINE.formulations(scene) == ("direct", "cg", "pyamg", "multigrid")
+    assert "multigrid" not in ENGINE.formulations(_scene(n=9))
     assert ENGINE.supports(scene, "sl_cubic:rk3") is None
     assert "backtrace must be one of" in ENGINE.supports(scene, "sl_linear:rk4")
     assert "meta asks solve = projection" in ENGINE.supports(scene, "steady")
@@ -68,7 +69,7 @@ def test_a_scene_with_particles_is_refused_with_the_reason():
     assert "a fluid grid alone, got also particles" in ENGINE.supports(scene)
 
 
-@pytest.mark.parametrize("name", ["mujoco", "pybullet", "pymunk", "taichi"])
+@pytest.mark.parametrize("name", ["mujoco", "pybullet", "pymunk"])  # taichi runs it
 def test_other_engines_refuse_the_part_kind_with_their_reason(name):
     reason = get_engine(name).supports(_scene())
     assert reason is not None and "grid" in reason and "fluid" in reason
