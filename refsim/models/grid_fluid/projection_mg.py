@@ -50,7 +50,9 @@ def _prolong_1d(n: int, periodic: bool) -> sp.csr_matrix:
 
 
 class Level:
-    """One grid: its cells, h, per-cell neighbour counts and the colour masks."""
+    """One grid: its cells, h, neighbour counts and colour sub-lattices. Its fields are held
+    padded by one ghost layer ((nx + 2, ny + 2), `inner` the cells): a wall's ghost is the edge
+    cell itself (its term cancels: Neumann), a periodic axis' the opposite edge."""
 
     def __init__(self, cells, h, periodic):
         self.cells, self.h, self.periodic = tuple(cells), float(h), tuple(periodic)
@@ -62,30 +64,67 @@ class Level:
             count[:, [0, -1]] -= 1
         self.count = count
         self.self_ghosts = 4.0 - count  # wall ghosts (equal to the cell) in a padded sum
-        i, j = np.indices(self.cells)
-        self.colours = ((i + j) % 2 == 0, (i + j) % 2 == 1)
+        self.inner = (slice(1, nx + 1), slice(1, ny + 1))
+        # colour 0 (red: i + j even) = sub-lattices (0, 0) and (1, 1); colour 1 the others
+        self.lattices = tuple(tuple(self._lattice(a, b) for a, b in pairs)
+                              for pairs in (((0, 0), (1, 1)), ((0, 1), (1, 0))))
 
-    def neighbour_sum(self, p) -> np.ndarray:
-        """Sum of the four neighbours, a wall's ghost being the cell itself."""
-        modes = ["wrap" if per else "edge" for per in self.periodic]
-        q = np.pad(p, ((1, 1), (0, 0)), mode=modes[0])
-        q = np.pad(q, ((0, 0), (1, 1)), mode=modes[1])
-        return q[2:, 1:-1] + q[:-2, 1:-1] + q[1:-1, 2:] + q[1:-1, :-2]
+    def _lattice(self, a, b):
+        nx, ny = self.cells
+        sub = (slice(a, nx, 2), slice(b, ny, 2))
+        padded = (slice(1 + a, nx + 1, 2), slice(1 + b, ny + 1, 2))
+        return padded, sub, self.count[sub], self.self_ghosts[sub]
 
-    def apply(self, p) -> np.ndarray:
-        """A p = (count p - sum of the real neighbours) / h^2."""
-        real = self.neighbour_sum(p) - self.self_ghosts * p
+    def padded(self, p=None) -> np.ndarray:
+        q = np.zeros((self.cells[0] + 2, self.cells[1] + 2))
+        if p is not None:
+            q[self.inner] = p
+        return q
+
+    def fill_ghosts(self, q) -> None:
+        if self.periodic[0]:
+            q[0, 1:-1], q[-1, 1:-1] = q[-2, 1:-1], q[1, 1:-1]
+        else:
+            q[0, 1:-1], q[-1, 1:-1] = q[1, 1:-1], q[-2, 1:-1]
+        if self.periodic[1]:
+            q[1:-1, 0], q[1:-1, -1] = q[1:-1, -2], q[1:-1, 1]
+        else:
+            q[1:-1, 0], q[1:-1, -1] = q[1:-1, 1], q[1:-1, -2]
+
+    @staticmethod
+    def _neighbours(q, centre) -> np.ndarray:
+        (a, b) = centre
+        up = (slice(a.start + 1, a.stop + 1, a.step), b)
+        down = (slice(a.start - 1, a.stop - 1, a.step), b)
+        right = (a, slice(b.start + 1, b.stop + 1, b.step))
+        left = (a, slice(b.start - 1, b.stop - 1, b.step))
+        out = q[up] + q[down]
+        out += q[right]
+        out += q[left]
+        return out
+
+    def apply(self, q) -> np.ndarray:
+        """A p (cells' shape) for padded p: (count p - sum of the real neighbours) / h^2."""
+        self.fill_ghosts(q)
+        p = q[self.inner]
+        real = self._neighbours(q, self.inner) - self.self_ghosts * p
         return (self.count * p - real) / self.h ** 2
 
-    def sweep(self, p, b, colour) -> None:
-        real = self.neighbour_sum(p) - self.self_ghosts * p
-        mask = self.colours[colour]
-        p[mask] = ((real + self.h ** 2 * b) / self.count)[mask]
+    def sweep(self, q, b, colour) -> None:
+        """Gauss-Seidel on one colour's cells of padded q, in place (same-colour cells are not
+        neighbours: each sub-lattice is one array update)."""
+        self.fill_ghosts(q)
+        h2 = self.h ** 2
+        for padded, sub, count, ghosts in self.lattices[colour]:
+            new = self._neighbours(q, padded) - ghosts * q[padded]
+            new += h2 * b[sub]
+            new /= count
+            q[padded] = new
 
     def matrix(self) -> sp.csr_matrix:
         n = self.cells[0] * self.cells[1]
         eye = np.eye(n).reshape((n,) + self.cells)
-        return sp.csr_matrix(np.stack([self.apply(e).ravel() for e in eye], axis=1))
+        return sp.csr_matrix(np.stack([self.apply(self.padded(e)).ravel() for e in eye], 1))
 
 
 class CellMultigrid:
@@ -105,6 +144,7 @@ class CellMultigrid:
                                         _prolong_1d(coarse.cells[1], fine.periodic[1]),
                                         format="csr"))
             self.levels.append(coarse)
+        self.restrict = [(P.T / 4.0).tocsr() for P in self.prolong]
         coarsest = self.levels[-1].matrix()
         k = 1 if singular else 0
         self._lu = spla.splu(coarsest[k:, k:].tocsc())
@@ -116,20 +156,22 @@ class CellMultigrid:
         return x.reshape(self.levels[-1].cells)
 
     def _vcycle(self, k, b):
+        """The correction (cells' shape) for right-hand side b at level k, from zero."""
         level = self.levels[k]
         if k == len(self.levels) - 1:
             return self._coarse_solve(b)
-        p = np.zeros(level.cells)
+        q = level.padded()
         for _ in range(self.sweeps):
-            level.sweep(p, b, 0)
-            level.sweep(p, b, 1)
-        r = b - level.apply(p)
-        rc = (self.prolong[k].T @ r.ravel() / 4.0).reshape(self.levels[k + 1].cells)
-        p += (self.prolong[k] @ self._vcycle(k + 1, rc).ravel()).reshape(level.cells)
+            level.sweep(q, b, 0)
+            level.sweep(q, b, 1)
+        r = b - level.apply(q)
+        rc = (self.restrict[k] @ r.ravel()).reshape(self.levels[k + 1].cells)
+        q[level.inner] += (self.prolong[k] @ self._vcycle(k + 1, rc).ravel()).reshape(
+            level.cells)
         for _ in range(self.sweeps):
-            level.sweep(p, b, 1)
-            level.sweep(p, b, 0)
-        return p
+            level.sweep(q, b, 1)
+            level.sweep(q, b, 0)
+        return q[level.inner].copy()
 
     def precondition(self, r_flat) -> np.ndarray:
         z = self._vcycle(0, r_flat.reshape(self.levels[0].cells)).ravel()
