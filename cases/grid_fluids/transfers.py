@@ -270,4 +270,4 @@ class Transfers(Case):
 # Named CASE (and registered in pyproject.toml's refsim.cases) once an in-house engine group
 # runs a FluidGrid with its Particles: until then the contract tests, which run every
 # registered case on the in-house engine, would find no group for its scenes.
-TRANSFERS = Transfers()
+CASE = Transfers()

@@ -100,15 +100,18 @@ def method_info(spec: str) -> dict | None:
     e.g. MuJoCo's implicitfast). Covers the second-order steppers (`get_integrator`), the
     sparse first-order theta methods of the grid models (crank_nicolson), the static solve
     ("steady", order 0: one complete solve to the solver's tolerance) and the grid-fluid
-    schemes ("sl_linear:rk2", refsim.integrators.semi_lagrangian)."""
+    schemes ("sl_linear:rk2", refsim.integrators.semi_lagrangian) and particle-grid transfers
+    ("apic_quadratic_bspline", refsim.models.grid_fluid.transfer.transfer_info)."""
+    from refsim.models.grid_fluid.transfer import transfer_info
+
     from .semi_lagrangian import scheme_info
     from .sparse_linear import first_order_implicit
     name = spec_name(spec)
     if name in STATIC_SOLVE:
         return dict(STATIC_SOLVE[name])
-    if scheme_info(spec) is not None:
-        return {k: scheme_info(spec)[k] for k in ("name", "order", "symplectic", "implicit",
-                                                  "adaptive")}
+    for info in (scheme_info(spec), transfer_info(spec)):
+        if info is not None:
+            return {k: info[k] for k in ("name", "order", "symplectic", "implicit", "adaptive")}
     try:
         method = get_integrator(spec)
     except ValueError:

@@ -9,7 +9,7 @@ import pytest
 from refsim.models.grid_fluid.particle_fluid import ParticleFluid
 from refsim.models.grid_fluid.transfer import (KERNELS, SCHEMES, TRANSFER_SPECS,
                                                parse_transfer)
-from refsim_cases.grid_fluids.transfers import TRANSFERS as CASE
+from refsim_cases.grid_fluids.transfers import CASE
 
 SPECS = [s for s in TRANSFER_SPECS if not s.startswith("blend")] + \
     [f"blend_{k}:0.95" for k in KERNELS]
