@@ -2,7 +2,7 @@
 `PrescribedFlow` part (kind "prescribed_flow"; issue 27, case 4, the advection tests).
 
 Flows (MODELS.md section 5), in the plane z = 0, y up:
-- "single_vortex" (LeVeque, SIAM J. Numer. Anal. 33, 1996, sec. 9.5): on the unit square
+- "leveque_vortex" (LeVeque, SIAM J. Numer. Anal. 33, 1996, sec. 9.5): on the unit square
   u = sin^2(pi x) sin(2 pi y) cos(pi t / T), v = -sin(2 pi x) sin^2(pi y) cos(pi t / T); the
   field reverses at T/2 and the flow map at t = T is the identity: every shape returns to its
   start. `period` is T (s);
@@ -28,15 +28,15 @@ from dataclasses import dataclass
 
 from ._validate import ArrayPart, _positive, _set, choice
 
-FLOWS = ("single_vortex", "zalesak_rotation")
+FLOWS = ("leveque_vortex", "zalesak_rotation")
 
 
 @dataclass(frozen=True, eq=False)
 class PrescribedFlow(ArrayPart):
-    """flow: one of FLOWS; period T (s, > 0; "single_vortex"); omega (rad/s, finite, non-zero;
+    """flow: one of FLOWS; period T (s, > 0; "leveque_vortex"); omega (rad/s, finite, non-zero;
     "zalesak_rotation") and centre (x, y) (m, finite; "zalesak_rotation")."""
 
-    flow: str = "single_vortex"
+    flow: str = "leveque_vortex"
     period: float = 8.0
     omega: float = math.pi / 314.0
     centre: tuple = (50.0, 50.0)

@@ -68,7 +68,7 @@ def test_slotted_disk_signed_distance_against_a_dense_boundary():
 @pytest.mark.parametrize("stepper", ["euler", "rk2", "rk3"])
 def test_timed_backtrace_is_h4s_backtrace_on_a_frozen_field(stepper):
     """Same operations in the same order when the field ignores t: bit for bit."""
-    flow = Flow(PrescribedFlow("single_vortex", period=3.0))
+    flow = Flow(PrescribedFlow("leveque_vortex", period=3.0))
     pts = MacGrid(16, 16, 1 / 16).cell_points()
     frozen = lambda x: flow.velocity_2d(0.4, x)  # noqa: E731
     got = backtrace_timed(pts, lambda t, x: frozen(x), 1.0, 0.01, stepper)
@@ -80,7 +80,7 @@ def test_timed_backtrace_orders_on_the_single_vortex():
     steps: its error ~ 1e-12): the error falls as dt^q, q = 1, 2, 3. (Over the whole [0, T]
     the flow's time symmetry cancels rk2's second-order term: order 3 there.) Stage times
     wrong (every stage at t^(n+1): a frozen field) would leave rk2 and rk3 at order 1."""
-    flow = Flow(PrescribedFlow("single_vortex", period=1.0))
+    flow = Flow(PrescribedFlow("leveque_vortex", period=1.0))
     start = np.column_stack([0.5 + 0.15 * np.cos(np.linspace(0, 6, 50)),
                              0.75 + 0.15 * np.sin(np.linspace(0, 6, 50))])
 
@@ -148,7 +148,7 @@ def test_constant_flow_advects_a_linear_phi_exactly(interpolant, stepper):
 def test_flows():
     """Single vortex: divergence-free (central differences, O(d^2)), no flow through the unit
     square's sides, reversed at T - t; the rotation: omega times the distance, tangential."""
-    sv = Flow(PrescribedFlow("single_vortex", period=2.0))
+    sv = Flow(PrescribedFlow("leveque_vortex", period=2.0))
     rng = np.random.default_rng(5)
     x = rng.uniform(0.05, 0.95, size=(200, 2))
     d = 1e-5

@@ -32,7 +32,7 @@ class Flow:
     def velocity_2d(self, t, points) -> np.ndarray:
         """u (..., 2) at points (..., 2) and time t (s)."""
         x, y = points[..., 0], points[..., 1]
-        if self.name == "single_vortex":
+        if self.name == "leveque_vortex":
             g = np.cos(np.pi * t / self.period)
             sx, sy = np.sin(np.pi * x), np.sin(np.pi * y)
             return np.stack([sx * sx * np.sin(2 * np.pi * y) * g,
@@ -53,7 +53,7 @@ class Flow:
         return self.matrix
 
     def describe(self) -> str:
-        if self.name == "single_vortex":
+        if self.name == "leveque_vortex":
             return (f"single vortex (LeVeque 1996): u = sin^2(pi x) sin(2 pi y) cos(pi t/T), "
                     f"v = -sin(2 pi x) sin^2(pi y) cos(pi t/T), T = {self.period:g} s, "
                     "evaluated analytically")
