@@ -48,15 +48,17 @@ def edge_matrices(x, cells):
 
 
 def edge_operator(cells, n):
-    """(d d m, n d) CSR: row (i d + k) m + e gives component i of element e's edge k + 1:
-    x_(k+1),i - x_0,i of the flat node-major positions (n d,) (entries +1 and -1)."""
+    """(d d m, n d) CSR: row (i d + k) m + e gives component i of element e's edge k + 1,
+    x_(k+1),i - x_0,i, of the flat node-major positions (n d,) (entries +1 and -1, so one
+    rounding: the subtraction's)."""
     m, d = len(cells), cells.shape[1] - 1
-    i, k = np.meshgrid(np.arange(d), np.arange(d), indexing="ij")
-    rows = ((i * d + k)[:, :, None] * m + np.arange(m)).reshape(-1)  # (i, k, e)
-    tip = (cells[:, 1:].T[None, :, :] * d + i[:, :, None]).reshape(-1)
-    base = (cells[:, 0][None, None, :] * d + i[:, :, None] + 0 * k[:, :, None]).reshape(-1)
-    return sp.csr_matrix((np.r_[np.ones(len(rows)), -np.ones(len(rows))],
-                          (np.r_[rows, rows], np.r_[tip, base])), shape=(d * d * m, n * d))
+    i = np.arange(d)[:, None, None]  # (i, k, e)
+    tip = cells[:, 1:].T[None] * d + i
+    base = np.broadcast_to(cells[:, 0] * d + i, tip.shape)
+    rows = np.arange(d * d * m)
+    return sp.csr_matrix((np.r_[np.ones(rows.size), -np.ones(rows.size)],
+                          (np.r_[rows, rows], np.r_[tip.reshape(-1), base.reshape(-1)])),
+                         shape=(d * d * m, n * d))
 
 
 def gradient_operator(dm_inv):
