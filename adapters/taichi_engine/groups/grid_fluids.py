@@ -11,14 +11,16 @@ tolerance:
   where the part asks), viscosity (explicit: a kernel sweep; implicit: backward Euler by
   ti.linalg.SparseSolver, fluid_solvers), walls and solid faces set to 0, periodic duplicates
   copied, and the projection;
-- the projection: A = G^T G assembled by a kernel, taichi's SparseSolver LDLT, pattern
-  analysed and factorised once per Sim (fluid_solvers.PressureSolver: why direct), refsim's
-  stopping rule ||b - A p|| <= rtol ||b|| on the true residual, null space pinned and the
-  mean removed where there is no air; a projection above the part's rtol is an engine failure.
+- the projection (fluid_solvers.PressureSolver), refsim's stopping rule ||b - A p|| <= rtol
+  ||b|| on the true residual, the mean removed where there is no air; a projection above the
+  part's rtol is an engine failure. Formulations: "direct" (A = G^T G assembled by a kernel,
+  taichi's SparseSolver LDLT, pattern analysed and factorised once per Sim, one cell pinned
+  where singular; every grid) and "mgpcg" (CG preconditioned by a cell-centred multigrid
+  V-cycle, fluid_multigrid; all-fluid grids of even cell counts >= 8).
 Integrators: the schemes "sl_linear", "sl_cubic", "sl_cubic_clamped" with an optional
 backtrace ":euler", ":rk2" (default) or ":rk3" (refsim.integrators.semi_lagrangian: names and
 orders), and "steady" (one projection of the scene's initial field per step) where the scene's
-meta asks solve = projection. Formulation: "direct" (LDLT).
+meta asks solve = projection.
 Refused with the reason: particles beside the grid (PIC/FLIP/APIC transfers: not written
 here), 3D.
 Observes "grid.u", "grid.v", "grid.p" (kinematic pressure of the last projection), the extras
@@ -36,7 +38,7 @@ from refsim.integrators.spec import spec_name
 from refsim.scene import FluidGrid
 from refsim.scene.fluid_grid import SOLID
 
-FORMULATIONS = ("direct",)
+FORMULATIONS = ("direct", "mgpcg")
 STEADY = {"name": "steady", "order": 0, "family": "one pressure projection", "explicit": False,
           "symplectic": False}
 INTEGRATORS = SCHEMES + ("steady",)
@@ -76,6 +78,11 @@ def supports(engine, scene, integrator):
 
 
 def formulations(engine, scene):
+    """direct always; mgpcg on all-fluid grids of even cell counts (fluid_multigrid)."""
+    from ..fluid_multigrid import multigrid_reason
+    part = scene.part(FluidGrid)
+    if part is None or multigrid_reason((part.nx, part.ny), part.marks):
+        return FORMULATIONS[:1]
     return FORMULATIONS
 
 
@@ -94,7 +101,7 @@ def _solid_masks(marks, nx, ny):
 class FluidState:
     """u, v, p of one grid and its step as kernels (module docstring)."""
 
-    def __init__(self, part, scheme, gravity, dt):
+    def __init__(self, part, scheme, gravity, dt, method="direct"):
         from .. import fluid_kernels as fk
         from .. import fluid_viscosity_kernels as vk
         from ..fluid_solvers import ImplicitViscosity, PressureSolver
@@ -112,7 +119,8 @@ class FluidState:
         self.pv = np.zeros(fk.padded_shape(self.v.shape, (0, 1), self.periodic))
         self.un, self.vn = np.zeros_like(self.u), np.zeros_like(self.v)
         self.su, self.sv = _solid_masks(part.marks, nx, ny)
-        self.pressure = PressureSolver(fk, self.geo, nx, ny, h, self.periodic, part.marks)
+        self.pressure = PressureSolver(fk, self.geo, nx, ny, h, self.periodic, part.marks,
+                                       method)
         self.viscous = None
         if part.nu > 0 and part.viscosity_scheme == "implicit":
             self.viscous = ImplicitViscosity(nx, ny, h, self.periodic, part.lid, dt, part.nu)
@@ -180,21 +188,33 @@ class FluidSim(Sim):
         from ..runtime import THREADS, effective_config, runtime
         rt = runtime()
         self.dt, self.part, self.steps = float(dt), scene.part(FluidGrid), 0
+        self.method = formulation
         self.steady = integrator == "steady"
         self.scheme = "sl_linear" if self.steady else integrator
         self.threads, self.config = THREADS, effective_config()
-        key = ("grid_fluids",)
-        self.cold = key not in rt["compiled"]
+        keys = [("grid_fluids",)] + ([("grid_fluids", "mgpcg")] if formulation == "mgpcg"
+                                     else [])
+        self.cold = any(key not in rt["compiled"] for key in keys)
         t0 = time.perf_counter()
-        if self.cold:
-            self._warm_up(scene)
-            rt["compiled"].add(key)
+        if ("grid_fluids",) not in rt["compiled"]:
+            self._warm_up()
+        if formulation == "mgpcg" and ("grid_fluids", "mgpcg") not in rt["compiled"]:
+            self._warm_up_multigrid()
+        rt["compiled"].update(keys)
         self.compile_s = time.perf_counter() - t0
         t0 = time.perf_counter()
-        self.state = FluidState(self.part, self.scheme, scene.gravity, self.dt)
+        self.state = FluidState(self.part, self.scheme, scene.gravity, self.dt, formulation)
         self.setup_s = time.perf_counter() - t0
 
-    def _warm_up(self, scene):
+    def _warm_up_multigrid(self):
+        """Compile the multigrid kernels: one projection on an 8 x 8 grid (two levels)."""
+        n = 8
+        u = np.outer(np.arange(n + 1.0), np.arange(n) % 2)
+        u[-1] = u[0] = 0.0
+        tiny = FluidGrid(n, n, 0.125, u, np.zeros((n, n + 1)), sides=self.part.sides)
+        FluidState(tiny, "sl_linear", (0.0, 0.0), 1.0, "mgpcg").project_initial()
+
+    def _warm_up(self):
         """Compile every kernel: two steps of a 4 x 4 grid with the part's sides, explicit and
         implicit viscosity, a lid where walls allow (taichi compiles per array rank and dtype,
         not per shape or value: the real grid reuses them)."""
@@ -214,7 +234,7 @@ class FluidSim(Sim):
     def _check(self):
         info = self.state.info
         if not info["residual"] <= self.part.rtol:
-            raise EngineFailure(f"{WHO}: projection (LDLT) stopped at relative residual "
+            raise EngineFailure(f"{WHO}: projection ({self.method}) stopped at relative residual "
                                 f"{info['residual']:.3g} > rtol {self.part.rtol:g}")
 
     def _step_impl(self, n):
@@ -238,7 +258,9 @@ class FluidSim(Sim):
         integrator = dict(STEADY) if self.steady else scheme_info(self.scheme)
         out = {"integrator": integrator, "dtype": "float64", "f64": True,
                "threads": self.threads, **self.config,
-               "projection": {"formulation": "direct", "solver_text": SOLVER_TEXT,
+               "projection": {"formulation": self.method, "solver_text": SOLVER_TEXT[
+                   self.method], **({"multigrid": s.pressure.mg.describe()} if
+                                    s.pressure.mg is not None else {}),
                               "rtol": part.rtol, "unknowns": s.pressure.size,
                               "criterion": "||b - A p||_2 <= rtol ||b||_2 on the true "
                                            "residual (A p by a kernel), refinement restarts",
