@@ -3,8 +3,8 @@ one run (issue 27's Speed).
 1. One pressure projection to 1e-10 relative residual (the true residual, every solver) of the
    projection case's manufactured field (walls, u_df + G phi) at 256^2 and 512^2 cells
    (1024^2 in the full run): every formulation of both engines (refsim: direct SuperLU, cg,
-   pyamg, and its multigrid where this checkout has it; taichi: direct LDLT and mgpcg), one `Sim.step`
-   = one projection. Columns: `setup+solve` (a fresh Sim: build and the first projection,
+   pyamg, and its multigrid where this checkout has it; taichi: direct LDLT and mgpcg), one
+   `Sim.step` = one projection. Columns: `setup+solve` (a fresh Sim: build and the first projection,
    with the factorisation or hierarchy that a time-stepping run builds once) and `solve`
    (the next projection on the same Sim, setup reused: what each time step pays; best of
    the repeats). Before any time is printed every projected field is checked against u_df

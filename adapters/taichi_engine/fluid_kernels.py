@@ -1,15 +1,15 @@
 """Float64 taichi kernels of refsim's MAC-grid fluid step (refsim.models.grid_fluid states the
 conventions): ghost layers, semi-Lagrangian advection of the face velocities, body force and
 boundaries, divergence, the pressure operator A = G^T G applied matrix-free and assembled, the
-gradient subtraction (the viscous kernels: fluid_viscosity_kernels). The same operations in the same order as refsim's numpy
-wherever a kernel can follow them (ghost formulas, index coordinates, the bilinear and
-Catmull-Rom interpolants, the backtraces' tableaux), so the advection matches it to the last
-bit or to a few ulps; the sums of A p's stencil run in a fixed stencil
-order, not scipy's CSR order.
+gradient subtraction (the viscous kernels: fluid_viscosity_kernels; the multigrid's:
+fluid_multigrid). The advection does refsim's numpy operations in the same order (ghost
+formulas, index coordinates, the bilinear and Catmull-Rom interpolants, the backtraces'
+tableaux): bit for bit (tested). A p's stencil is summed in a fixed order, not scipy's CSR
+order, and the gradient as (p_high - p_low) / h: equal to round-off.
 
 Arrays: 2D numpy float64 arrays (u (nx + 1, ny), v (nx, ny + 1), cells (nx, ny)) handed as
-external arrays (arch=cpu: zero-copy) or taichi ndarrays for the padded scratch; int32 masks.
-Geometry (`geo_t`): nx, ny, h, per axis periodic (1) or wall (0), the lid.
+external arrays (arch=cpu: zero-copy), int32 masks. Geometry (`geo_t`): nx, ny, h, per axis
+periodic (1) or wall (0), the lid.
 
 Ghost layers (`pad`): refsim.models.grid_fluid.mac.padded's rules, axis 0 then axis 1 (the
 corners from the axis-0 ghosts, as numpy's concatenations give them): periodic wrap of the n
