@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .polar import plane_corotated_stress, spatial_corotated_stress
 from .tensors import (by_components, cofactor, cofactor_differential, components, ddot, identity,
                       new_like, rotation_variant_svd, trace, trace_minus, transposed)
 
@@ -60,35 +61,6 @@ def neo_hookean_parameters(mu_lame, lam_lame, d):
                          f"lam_L + (1 - 2/(d(d+1))) mu_L > 0 (in plane stress nu > -1/2), "
                          f"got lam = {lam:g}")
     return mu, lam, 1.0 + d * mu / ((d + 1) * lam)
-
-
-def plane_corotated_stress(f, mu, lam):
-    """The 2D corotated stress P = 2 mu (F - R) + lam (tr S - 2) R entry by entry: with (x, y) =
-    (F00 + F11, F10 - F01), r = |(x, y)| = tr S and (c, s) = (x, y) / r, P = 2 mu F + g R,
-    g = lam (r - 2) - 2 mu, i.e. g c = (lam - 2 (lam + mu) / r) x (R = I, c = 1, where r = 0);
-    r as sqrt(x^2 + y^2) (np.hypot: 25x slower here, an ulp apart)."""
-    fc = components(f)
-    x, y = fc[0, 0] + fc[1, 1], fc[1, 0] - fc[0, 1]
-    r = x * x
-    r += y * y
-    np.sqrt(r, out=r)
-    with np.errstate(invalid="ignore", divide="ignore"):  # r = 0: fixed below
-        g = np.divide(-2.0 * (lam + mu), r)  # g / r = lam - 2 (lam + mu) / r
-        g += lam
-        x *= g  # g c = (g / r) x
-        y *= g  # g s = (g / r) y
-    if not r.all():  # R = I where r = 0: g c = g, g s = 0
-        zero = r == 0.0
-        x[zero], y[zero] = -2.0 * (lam + mu), 0.0
-    p, pc = new_like(f)
-    two_mu = 2.0 * mu
-    for i, j in ((0, 0), (1, 1), (1, 0), (0, 1)):
-        np.multiply(fc[i, j], two_mu, out=pc[i, j])
-    pc[0, 0] += x
-    pc[1, 1] += x
-    pc[1, 0] += y
-    pc[0, 1] -= y
-    return p
 
 
 class Law:
@@ -222,9 +194,14 @@ class Corotated(Law):
                                                                         - self.d) ** 2
 
     def stress(self, f):
-        """2D: `plane_corotated_stress`; 3D: R and s by the SVD (`_polar`)."""
+        """2D: `plane_corotated_stress`; 3D: `spatial_corotated_stress` (Newton's polar
+        iteration, the SVD where F is inverted)."""
         if self.d == 2:
             return plane_corotated_stress(f, self.mu, self.lam)
+        return spatial_corotated_stress(f, self.mu, self.lam, self._svd_stress)
+
+    def _svd_stress(self, f):
+        """P = 2 mu (F - R) + lam (tr S - d) R with R and S's singular values by the SVD."""
         r, s, _ = self._polar(f)
         return 2.0 * self.mu * (f - r) + self.lam * (np.sum(s, -1) - self.d)[..., None, None] * r
 

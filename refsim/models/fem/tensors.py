@@ -79,3 +79,4 @@ def cofactor_differential(f, df):
     dc = [df[..., :, k] for k in range(3)]
     pairs = ((1, 2), (2, 0), (0, 1))
     return np.stack([np.cross(dc[i], c[j]) + np.cross(c[i], dc[j]) for i, j in pairs], -1)
+
