@@ -36,6 +36,7 @@ import numpy as np
 from refsim.case import EPS, Case, Param
 from refsim.integrators.first_order import get_first_order
 from refsim.integrators.semi_lagrangian import parse_scheme
+from refsim.models.advection import discrete_factors, propagate
 from refsim.models.grid_fluid.level_set import LevelSetAdvection, area, symmetric_difference
 from refsim.models.grid_fluid.mac import MacGrid
 from refsim.scene import Grid, Particles, Scene
@@ -152,8 +153,8 @@ class AdvectionCase(Case):
         return [self.t_end(p) / k for k in self.particle_steps(p)]
 
     def order_dts(self, p):
-        """Particles: 10 x the finest timed step count, so the fit spans more than a decade."""
-        return [] if self.level_set(p) else [self.t_end(p) / (10 * self.particle_steps(p)[-1])]
+        """Particles: 4 x the finest timed step count, so the fit spans 16 x in dt."""
+        return [] if self.level_set(p) else [self.t_end(p) / (4 * self.particle_steps(p)[-1])]
 
     def reference_dt(self, p):
         return self.dts(p)[-1] if self.level_set(p) else self.dts(p)[1]
@@ -237,11 +238,13 @@ class AdvectionCase(Case):
         roundoff = 4.0 * steps * EPS * growth * scale
         return gap + roundoff, (
             f"the exact discrete solution of {integrator} (its tableau run by the case on its "
-            f"own velocity, {steps} steps): max marker error {gap:.6g} m at the samples; plus "
-            f"round-off 4 n eps G S = {roundoff:.3g} (S = {scale:.3g} m the largest |p| plus "
-            f"the shape's size; G = {growth:.4g} the largest growth of a perturbation, "
-            "||J_n|| max_k ||J_k|| of the discrete flow's Jacobians J_k (area preserving: "
-            "||J^-1|| = ||J||), by finite differences; factor 4: the oracle rounds as well)")
+            f"own velocity, {steps} steps; the closed form c + R(h M)^k (p_0 - c) on the "
+            f"rotation): max marker error {gap:.6g} m at the samples; plus round-off "
+            f"4 n eps G S = {roundoff:.3g} (S = {scale:.3g} m the largest |p| plus the shape's "
+            f"size; G = {growth:.4g} the largest growth of a perturbation: max_k "
+            "||R(h M)^k|| on the rotation, else ||J_n|| max_k ||J_k|| of the discrete flow's "
+            "Jacobians J_k (area preserving: ||J^-1|| = ||J||) by finite differences; factor "
+            "4: the oracle rounds as well)")
 
 
 @functools.lru_cache(maxsize=32)
@@ -271,18 +274,28 @@ def _largest_singular_value(col_x, col_y) -> float:
 @functools.lru_cache(maxsize=64)
 def _oracle_particles(case, p_json, integrator, dt):
     """(max over the samples and markers of |p_k - p(t_k)| of the discrete solution, the
-    perturbation growth G, steps)."""
+    perturbation growth G, steps). An affine flow (the rotation): the closed form
+    c + R(h M)^k (p_0 - c) (refsim.models.advection) and G = max(1, max_k ||R(h M)^k||);
+    otherwise the stepper run on the markers and two perturbed copies (G from their finite
+    differences)."""
     p = json.loads(p_json)
     stepper = get_first_order(integrator)
-    flow = CaseFlow(lambda t, x: case.velocity(p, t, x), case.matrix(p))
+    steps = int(round(case.t_end(p) / dt))
+    stride = max(1, int(round(case.sample_dt(p) / dt)))
+    sampled = np.unique(np.append(np.arange(0, steps, stride), steps))
     start = case.markers(p)
+    if case.matrix(p) is not None:
+        matrix, centre = case.matrix(p), np.append(case.pivot(p), 0.0)
+        factors = discrete_factors(stepper, matrix, dt, sampled)
+        disc = propagate(matrix, centre, np.column_stack([start, np.zeros(len(start))]),
+                         factors)[..., :2]
+        gap = np.linalg.norm(disc - case.exact_markers(p, sampled * dt), axis=-1)
+        return float(np.max(gap)), max(1.0, float(np.max(np.abs(factors)))), steps
+    flow = CaseFlow(lambda t, x: case.velocity(p, t, x), None)
     eps = PERTURBATION * case.motion_scale(p)
     copies = np.stack([start, start + [eps, 0.0], start + [0.0, eps]])
     state = np.concatenate([copies, np.zeros(copies.shape[:2] + (1,))], axis=-1)
-    steps = int(round(case.t_end(p) / dt))
-    stride = max(1, int(round(case.sample_dt(p) / dt)))
-    sampled = set(np.unique(np.append(np.arange(0, steps, stride), steps)).tolist())
-    gaps, norms = [], []
+    sampled, gaps, norms = set(sampled.tolist()), [], []
     for k in range(steps + 1):  # one step of all markers at a time (vectorised over them)
         if k in sampled:
             gaps.append(float(np.max(np.linalg.norm(

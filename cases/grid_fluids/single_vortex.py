@@ -9,7 +9,7 @@ Default T = 1 s (LeVeque's tests used T = 1.5 and more; Enright et al. 2002 used
 level sets: `--param period=8 --param n=128`, 10-20 s a scheme; particles at T = 8: variant
 `particles_t8`); the level set on n = 32 cells a side (the disk 4.8 cells in radius), dt = h
 (CFL 1 at the largest speed, 1 m/s), variant `n64` the next grid. Particles: 256 markers on
-the circle, dt = T/16, T/32, T/64 (and T/640 for the order fit).
+the circle, dt = T/16, T/32, T/64 (and T/256 for the order fit).
 
 What the schemes do (measured with tests/cases/test_grid_fluids_advection.py; T = 1, dt = h):
 the bilinear level set diffuses (numerical viscosity ~ a (1 - a) h^2 / (2 dt) per axis, a the
