@@ -32,6 +32,8 @@ Simulation (ACM TOG 2018). Summary and slips: docs/models.md#fem-elements-and-st
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from .polar import plane_corotated_stress, spatial_corotated_stress
@@ -235,6 +237,7 @@ class Corotated(Law):
 
 class NeoHookean(Law):
     name = "neo_hookean"
+    padded = 0.0  # F_zz^2 of a plane-strain law's pad (PlaneStrain), added to I_C
 
     def __init__(self, mu_lame, lam_lame, d):
         mu, lam, self.alpha = neo_hookean_parameters(mu_lame, lam_lame, d)
@@ -256,6 +259,8 @@ class NeoHookean(Law):
             for j in range(d):
                 if i or j:
                     ic += fc[i, j] * fc[i, j]
+        if self.padded:
+            ic += self.padded
         cof = np.empty((d, d) + f.shape[:-2])
         if d == 2:
             cof[0, 0], cof[1, 1] = fc[1, 1], fc[0, 0]
@@ -301,6 +306,11 @@ class PlaneStrain(Law):
     def __init__(self, law3d: Law):
         self.law, self.name = law3d, law3d.name
         super().__init__(law3d.mu, law3d.lam, 2)
+        self._in_plane = None  # the 3D law's entry-by-entry stress over the in-plane entries
+        if law3d.name in ("linear", "green", "neo_hookean"):
+            self._in_plane = copy.copy(law3d)
+            self._in_plane.d = 2
+            self._in_plane.padded = 1.0  # Neo-Hookean's I_C keeps its F_zz^2 = 1
 
     @staticmethod
     def _pad(f, one):
@@ -313,8 +323,12 @@ class PlaneStrain(Law):
         return self.law.energy_density(self._pad(f, 1.0))
 
     def stress(self, f):
-        """The 3D law's stress at diag(F, 1) (padded with component-wise memory, so that the
-        law's entry-by-entry passes run over contiguous entries), its in-plane block."""
+        """The 3D law's stress at diag(F, 1), its in-plane block: for linear, green and
+        neo_hookean the law's entry-by-entry formula over the in-plane entries (the padded
+        entries, F_zz = 1 and zeros, only add exact zeros there: the same values), corotated
+        `_corotated_stress`; any other law on F padded with component-wise memory."""
+        if self._in_plane is not None:
+            return self._in_plane.stress(f)
         if self.name == "corotated":
             return self._corotated_stress(f)
         pad = by_components(3, f.shape[:-2])
