@@ -4,7 +4,8 @@ is a spring to a fixed anchor), and the four steppers of the spring-network grou
 
 - symplectic Euler, velocity Verlet (closing half kick corrected once when forces depend on v)
   and RK4, with refsim's arithmetic, the time loop inside one kernel
-  (`ti.loop_config(serialize=True)`: the sweeps over springs and nodes are serial too);
+  (`ti.loop_config(serialize=True)`: the sweeps over springs and nodes are serial too); the
+  RK4 kernel is made by `make_rk4` over the acceleration function, shared with fem_kernels;
 - Baraff-Witkin's (M - h D - h^2 K) dv = h (f + h K v): one kernel computes f, the right-hand
   side and the per-spring 3x3 blocks of A = M - h D - h^2 K, and either enters the blocks as
   triplets into a ti.linalg.SparseMatrixBuilder (the direct solve) or keeps them for
@@ -78,6 +79,46 @@ def accel(P: ti.template(), x: ti.template(), v: ti.template(), a: ti.template()
         a[off + i] = (a[off + i] - P.drag * v[off + i]) * P.inv_m[i] + P.gravity
 
 
+def make_rk4(pack_t, nd_vec, accel_fn, after_step=None):
+    """The RK4 kernel over argpacks of type pack_t and state ndarrays of type nd_vec, with the
+    acceleration ti.func accel_fn(P, x, v, a, off) (shared by the spring networks and the FEM
+    meshes, whose accel ignores v) and an optional after_step(P, x) ti.func run after each
+    step (the FEM group's plastic commit)."""
+    closing = after_step is not None  # a Python bool: taichi's AST has no `is not`
+
+    @ti.kernel
+    def rk4(P: pack_t, x: nd_vec, v: nd_vec, xs: nd_vec, vs: nd_vec, acc: nd_vec, h: f64,
+            n: i32):
+        """Classical RK4 on (x, v): stage s (X_1 = x, V_1 = v) X_s = x + (a_s h) V_s-1,
+        V_s = v + (a_s h) A_s-1, A_s = a(X_s, V_s), a = (1/2, 1/2, 1); the four stages at offsets
+        s n of xs, vs, acc (one inlined force sweep, not four); then x += (b_s h) V_s,
+        v += (b_s h) A_s summed in stage order, b = (1/6, 1/3, 1/3, 1/6)."""
+        m = x.shape[0]
+        ti.loop_config(serialize=True)
+        for _ in range(n):
+            for st in range(4):
+                off, back = st * m, (st - 1) * m
+                if st == 0:
+                    for i in range(m):
+                        xs[i], vs[i] = x[i], v[i]
+                else:
+                    ha = (1.0 if st == 3 else 0.5) * h
+                    for i in range(m):
+                        xs[off + i] = x[i] + ha * vs[back + i]
+                        vs[off + i] = v[i] + ha * acc[back + i]
+                accel_fn(P, xs, vs, acc, off)
+            h6, h3 = (1.0 / 6.0) * h, (1.0 / 3.0) * h
+            for i in range(m):
+                x[i] = x[i] + h6 * vs[i] + h3 * vs[m + i] + h3 * vs[2 * m + i] + \
+                    h6 * vs[3 * m + i]
+                v[i] = v[i] + h6 * acc[i] + h3 * acc[m + i] + h3 * acc[2 * m + i] + \
+                    h6 * acc[3 * m + i]
+            if ti.static(closing):
+                after_step(P, x)
+
+    return rk4
+
+
 def make_steppers(pack_t, accel_fn):
     """(start, symplectic_euler, velocity_verlet, rk4) kernels over argpacks of type pack_t
     with the acceleration ti.func accel_fn(P, x, v, a, off): one kernel family per force
@@ -120,35 +161,7 @@ def make_steppers(pack_t, accel_fn):
                 for i in range(x.shape[0]):
                     v[i] = vh[i] + (0.5 * h) * a[i]
 
-    @ti.kernel
-    def rk4(P: pack_t, x: nd_vec3, v: nd_vec3, xs: nd_vec3, vs: nd_vec3, acc: nd_vec3, h: f64,
-            n: i32):
-        """Classical RK4 on (x, v): stage s (X_1 = x, V_1 = v) X_s = x + (a_s h) V_s-1,
-        V_s = v + (a_s h) A_s-1, A_s = a(X_s, V_s), a = (1/2, 1/2, 1); the four stages at offsets
-        s n of xs, vs, acc (one inlined force sweep, not four); then x += (b_s h) V_s,
-        v += (b_s h) A_s summed in stage order, b = (1/6, 1/3, 1/3, 1/6)."""
-        m = x.shape[0]
-        ti.loop_config(serialize=True)
-        for _ in range(n):
-            for st in range(4):
-                off, back = st * m, (st - 1) * m
-                if st == 0:
-                    for i in range(m):
-                        xs[i], vs[i] = x[i], v[i]
-                else:
-                    ha = (1.0 if st == 3 else 0.5) * h
-                    for i in range(m):
-                        xs[off + i] = x[i] + ha * vs[back + i]
-                        vs[off + i] = v[i] + ha * acc[back + i]
-                accel_fn(P, xs, vs, acc, off)
-            h6, h3 = (1.0 / 6.0) * h, (1.0 / 3.0) * h
-            for i in range(m):
-                x[i] = x[i] + h6 * vs[i] + h3 * vs[m + i] + h3 * vs[2 * m + i] + \
-                    h6 * vs[3 * m + i]
-                v[i] = v[i] + h6 * acc[i] + h3 * acc[m + i] + h3 * acc[2 * m + i] + \
-                    h6 * acc[3 * m + i]
-
-    return start, symplectic_euler, velocity_verlet, rk4
+    return start, symplectic_euler, velocity_verlet, make_rk4(pack_t, nd_vec3, accel_fn)
 
 
 start, symplectic_euler, velocity_verlet, rk4 = make_steppers(net_t, accel)
