@@ -230,7 +230,10 @@ def neighbour(i: i32, j: i32, axis: ti.template(), side: i32, g: ti.template()):
     periodic = g.px if ti.static(axis == 0) else g.py
     k = (i if ti.static(axis == 0) else j) + side
     if periodic:
-        k = (k + n) % n
+        if k < 0:
+            k += n
+        elif k >= n:
+            k -= n
     return k
 
 
@@ -239,21 +242,22 @@ def apply_pressure(p: grid_t, out: grid_t, au: mask_t, av: mask_t, fluid: mask_t
                    w: f64):
     """out = A p on the fluid cells (0 elsewhere): sum over the cell's active faces of
     w (p_c - p_other), p_other = 0 unless FLUID (air: p = 0), w = 1/h^2."""
-    for i, j in out:
-        acc = 0.0
-        if fluid[i, j]:
-            for s in ti.static((-1, 1)):
-                fi = i if s < 0 else (i + 1 if (i + 1 < g.nx or not g.px) else 0)
-                fj = j if s < 0 else (j + 1 if (j + 1 < g.ny or not g.py) else 0)
-                if au[fi, j]:
-                    k = neighbour(i, j, 0, s, g)
-                    other = p[k, j] if fluid[k, j] else 0.0
-                    acc += w * (p[i, j] - other)
-                if av[i, fj]:
-                    k = neighbour(i, j, 1, s, g)
-                    other = p[i, k] if fluid[i, k] else 0.0
-                    acc += w * (p[i, j] - other)
-        out[i, j] = acc
+    for i in range(out.shape[0]):  # rows in parallel, each row serial (multigrid's note)
+        for j in range(out.shape[1]):
+            acc = 0.0
+            if fluid[i, j]:
+                for s in ti.static((-1, 1)):
+                    fi = i if s < 0 else (i + 1 if (i + 1 < g.nx or not g.px) else 0)
+                    fj = j if s < 0 else (j + 1 if (j + 1 < g.ny or not g.py) else 0)
+                    if au[fi, j]:
+                        k = neighbour(i, j, 0, s, g)
+                        other = p[k, j] if fluid[k, j] else 0.0
+                        acc += w * (p[i, j] - other)
+                    if av[i, fj]:
+                        k = neighbour(i, j, 1, s, g)
+                        other = p[i, k] if fluid[i, k] else 0.0
+                        acc += w * (p[i, j] - other)
+            out[i, j] = acc
 
 
 @ti.kernel
