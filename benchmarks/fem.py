@@ -19,12 +19,24 @@ form), unit thickness.
    `solve_static` with the linear law (one step solves it), scikit-fem `asm` + `condense` +
    `solve`. Solutions checked equal to 1e-9 of the largest displacement (the same matrix up
    to 1e-12 relative, conditioning ~1e3 at these sizes).
-3. Explicit force evaluation: symplectic Euler steps of the same mesh, corotated law, free but
-   for one pinned corner, released stretched by 1 %: element updates (elements x steps) per
-   second of the engines' own Sims, refsim (numpy: F, the polar decomposition by SVD, P, the
-   sparse scatter) against taichi's float64 kernels (its time loop inside one kernel), each
-   `Sim.step(k)` after a warm-up (compilation), best of repeats, at 10^4 and 10^5 triangles
-   (with or without --quick). Goal: in-house >= 1/3 of taichi CPU's throughput at 10^5.
+3. Explicit force evaluation: symplectic Euler steps of the same mesh (plane stress),
+   corotated law, free but for one pinned corner, released stretched by 1 %: element updates
+   (elements x steps) per second of the engines' own Sims, refsim (numpy, FemSystem.accel: the
+   edge vectors, F = Ds Dm^-1 and the nodal forces as three sparse products built once per
+   mesh around the law's closed form written entry by entry, one pass per operation over
+   contiguous entries: refsim.models.fem.elements) against taichi's float64 kernels (its time
+   loop inside one kernel), each `Sim.step(k)` after a warm-up (compilation), best of repeats,
+   at 10^4 and 10^5 triangles (with or without --quick). Goal: in-house >= 1/3 of taichi
+   CPU's throughput at 10^5. Measured 2026-11-27 on the shared 2-core machine under a load of
+   7-9 (so only ratios from one run): 0.25-0.34 at 10^5 and 0.22-0.26 at 10^4 in two --quick
+   runs (0.02-0.04 before the entry-by-entry path, alternated with them); by CPU time (best of
+   5, the two engines alternated) 0.22-0.26 at 10^5: refsim 9.8e6/s, taichi 3.8e7-4.4e7/s.
+   Not met. Where a refsim step goes at 10^5 (CPU time per element, alone, best of 7, lighter
+   load): the edge map 15 ns (8.0e5 entries), F 11 ns (6.3e5), the corotated stress 17 ns (18
+   passes), the force map 9 ns (8.5e5), the stepper's update 5 ns, copies 2 ns: ~60 ns (66 ns
+   as one call), about 1 ns per element per numpy pass and 1-2 ns per sparse entry on this
+   CPU, against taichi's ~20-25 ns. This mesh's right triangles have zero gradient components
+   that the maps drop: on a jittered mesh of the same size FemSystem.accel is ~40 % slower.
 Times: best of repeats after a warm-up; one timing where a call takes over 5 s. numpy and
 scipy on the run's one thread. `--quick`: 10^4 and 10^5 triangles; the full bench adds 10^6.
 `main` returns the figures for the store.
