@@ -19,6 +19,7 @@ worst between two faces), of the scheme's own order in h.
 """
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -28,12 +29,16 @@ from refsim.models.grid_fluid.mac import MacGrid, sample
 DATA = (Path(__file__).parent.parent / "data"
         / "ghia_ghia_shin_1982_re100_centrelines.csv")
 LINES = ("u_at_x0.5", "v_at_y0.5")
-POINTS_PER_LINE = 17
 
 
 def ghia() -> dict:
     """{"u_y": heights, "u": u there, "v_x": abscissae, "v": v there} (17 each, lid units),
-    read by the file's header."""
+    read by the file's header (once: read-only arrays)."""
+    return dict(_read())
+
+
+@functools.lru_cache(maxsize=1)
+def _read() -> tuple:
     rows = [line for line in DATA.read_text().splitlines()
             if line.strip() and not line.startswith("#")]
     header = [name.strip() for name in rows[0].split(",")]
@@ -47,7 +52,9 @@ def ghia() -> dict:
         out[value] = np.array([float(r["velocity"]) for r in sel])
     assert sum(len(out[k]) for k in ("u", "v")) == len(table), \
         f"{DATA.name}: rows outside {LINES}"
-    return out
+    for arr in out.values():
+        arr.flags.writeable = False
+    return tuple(out.items())
 
 
 def reference_values() -> np.ndarray:
