@@ -213,23 +213,29 @@ class AdvectionCase(Case):
     # -- bounds ---------------------------------------------------------------------------------
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         if self.level_set(p):
-            return self._level_set_tolerance(p, integrator, dt)
+            return self._level_set_tolerance(p, integrator, dt, engine_variant)
         return self._particle_tolerance(p, integrator, dt)
 
-    def _level_set_tolerance(self, p, integrator, dt):
-        phi, steps = _oracle_level_set(self, json.dumps(p, sort_keys=True), integrator, dt)
+    def _level_set_tolerance(self, p, integrator, dt, formulation=""):
+        reinit = reinit_every(formulation)
+        phi, steps = _oracle_level_set(self, json.dumps(p, sort_keys=True), integrator, dt,
+                                       reinit)
         g = self.grid(p)
         exact = self.sdf(p, g.cell_points(), steps * dt)
         oracle = symmetric_difference(phi, exact, g.h)
-        delta = DELTA_ROUNDINGS * steps * EPS * float(np.max(np.abs(self.sdf(p, g.cell_points()))))
+        phi_max = float(np.max(np.abs(self.sdf(p, g.cell_points()))))
+        delta = DELTA_ROUNDINGS * steps * EPS * phi_max
         band = 3.0 * (area(phi - delta, g.h) - area(phi + delta, g.h))
         return oracle + band, (
             f"the exact discrete solution of {integrator} (the scheme run by the case on its own "
-            f"velocity, {steps} steps): symmetric difference {oracle:.6g} m^2; plus {band:.3g} "
+            f"velocity, {steps} steps"
+            f"{f', redistanced every {reinit} steps' if reinit else ''}): symmetric difference "
+            f"{oracle:.6g} m^2; plus {band:.3g} "
             f"for a phi within delta = {DELTA_ROUNDINGS} n eps max|phi_0| = {delta:.3g} of it "
             "(another engine's roundings, undamped: the bilinear and clamped interpolants are "
             "convex combinations), 3 (A(phi - delta) - A(phi + delta)) (the rule's areas are "
-            "monotone in each nodal value)")
+            "monotone in each nodal value; a redistanced run in-house does the oracle's "
+            "operations)")
 
     def _particle_tolerance(self, p, integrator, dt):
         gap, growth, steps = _oracle_particles(self, json.dumps(p, sort_keys=True), integrator,
@@ -247,15 +253,27 @@ class AdvectionCase(Case):
             "4: the oracle rounds as well)")
 
 
+def reinit_every(formulation: str) -> int:
+    """The engines' level-set formulations: "" (none) or "reinit_every_<k>" (phi redistanced
+    after every k-th step, refsim.models.grid_fluid.level_set.redistance)."""
+    if not formulation:
+        return 0
+    if not formulation.startswith("reinit_every_"):
+        raise ValueError(f"level-set formulation must be '' or 'reinit_every_<k>', got "
+                         f"{formulation!r}")
+    return int(formulation.rsplit("_", 1)[1])
+
+
 @functools.lru_cache(maxsize=32)
-def _oracle_level_set(case, p_json, integrator, dt):
+def _oracle_level_set(case, p_json, integrator, dt, reinit=0):
     """(phi at the end, steps) of the scheme run by the case on its own velocity."""
     p = json.loads(p_json)
     g = case.grid(p)
     interpolant, backtrace = parse_scheme(integrator)
     steps = int(round(case.t_end(p) / dt))
     model = LevelSetAdvection(case.sdf(p, g.cell_points()), g,
-                              lambda t, x: case.velocity(p, t, x), interpolant, backtrace)
+                              lambda t, x: case.velocity(p, t, x), interpolant, backtrace,
+                              reinit)
     model.step(dt, steps)
     return model.phi, steps
 

@@ -8,6 +8,9 @@ Zalesak's rotation): a `PrescribedFlow` part moves either
   interpolants and backtrace tableaux (refsim.models.grid_fluid.level_set) through the
   analytic velocity; integrators "sl_<linear|cubic|cubic_clamped>:<euler|rk2|rk3>" (the
   names of refsim.integrators.semi_lagrangian); observes "grid.phi".
+Formulations of a level set: "" (no reinitialisation) and "reinit_every_16" (phi redistanced
+to its interpolant's zero line after every 16th step, within 6 cells of it: level_set.
+redistance); particles: "".
 The module name sorts after "particles" and "grid_*", whose claims leave these scenes alone
 (a Grid of model "level_set" is neither diffusion, wave nor poisson; particles beside a
 prescribed_flow part are not the particles group's kinds).
@@ -31,6 +34,18 @@ PARTICLE = ("explicit_euler", "midpoint", "heun", "rk2", "rk4", "implicit_euler"
 # the bare scheme names let the engine's spec check (spec_name) pass the combinations; the
 # level set refuses them (its backtrace is named): no duplicate rows of the default rk2
 INTEGRATORS = LEVEL_SET + PARTICLE + ("sl_linear", "sl_cubic", "sl_cubic_clamped")
+
+
+REINIT = "reinit_every_16"
+
+
+def formulations(engine, scene):
+    return ("", REINIT) if scene.part(Grid) is not None else ("",)
+
+
+def reinit_every(formulation) -> int:
+    """Steps between redistancings of a formulation name ("reinit_every_<k>"; "" never)."""
+    return int(formulation.rsplit("_", 1)[1]) if formulation else 0
 
 
 def claims(scene) -> bool:
@@ -102,15 +117,15 @@ class ParticleFlowSim(Sim):
 class LevelSetSim(Sim):
     """phi on the cells advected by the analytic flow (semi-Lagrangian)."""
 
-    def __init__(self, scene, dt, integrator):
-        self.dt = float(dt)
+    def __init__(self, scene, dt, integrator, formulation=""):
+        self.dt, self.reinit = float(dt), reinit_every(formulation)
         grid = scene.part(Grid)
         self.integrator = integrator
         self.flow = Flow(scene.part(PrescribedFlow))
         self.mac = MacGrid(grid.shape[0], grid.shape[1], grid.spacing[0])
         interpolant, backtrace = parse_scheme(integrator)
         self.model = LevelSetAdvection(grid.fields["phi"], self.mac, self.flow.velocity_2d,
-                                       interpolant, backtrace)
+                                       interpolant, backtrace, self.reinit)
 
     def _step_impl(self, n):
         self.model.step(self.dt, n)
@@ -129,18 +144,21 @@ class LevelSetSim(Sim):
                          "the domain",
                 "order_note": "pure advection: no splitting; the declared order 1 is the "
                               "scheme name's (refsim.integrators.semi_lagrangian)",
-                "reinitialisation": "none",
+                "reinitialisation": (f"redistanced after every {self.reinit}th step to the zero "
+                                     "line of phi's piecewise-linear interpolant, within 6 "
+                                     "cells of it (clamped beyond)") if self.reinit else "none",
                 "vectorised": "numpy over all cells"}
 
 
 def build(engine, scene, dt, integrator, formulation):
     if scene.part(Particles) is not None:
         return ParticleFlowSim(scene, dt, integrator)
-    return LevelSetSim(scene, dt, integrator)
+    return LevelSetSim(scene, dt, integrator, formulation or "")
 
 
 MODEL_GROUP = ModelGroup(name="prescribed_flow", build=build, claims=claims,
                          parts=frozenset({"prescribed_flow", "particles", "grids"}),
                          features=frozenset({"prescribed_flow", "leveque_vortex",
                                              "zalesak_rotation", "grid", "level_set"}),
-                         supports=supports, integrators=INTEGRATORS)
+                         supports=supports, formulations=formulations,
+                         integrators=INTEGRATORS)

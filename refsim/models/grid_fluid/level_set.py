@@ -154,6 +154,67 @@ def symmetric_difference(phi, phi_exact, h) -> float:
     return area(phi, h) + area(phi_exact, h) - 2.0 * intersection_area(phi, phi_exact, h)
 
 
+# -- reinitialisation ----------------------------------------------------------------------------
+def interface_segments(phi, h) -> np.ndarray:
+    """(m, 2, 2): the zero line of the area rule's interpolant, one segment per triangle it
+    cuts (a linear function's zero line crosses exactly the 2 edges whose ends differ in sign,
+    < 0 against >= 0, at t = f_a / (f_a - f_b) from end a)."""
+    nx, ny = phi.shape
+    xc, yc = (np.arange(nx) + 0.5) * h, (np.arange(ny) + 0.5) * h
+    X, Y = np.meshgrid(xc, yc, indexing="ij")
+    pos = np.stack([X, Y], -1)
+    a, b, c, d = pos[:-1, :-1], pos[1:, :-1], pos[1:, 1:], pos[:-1, 1:]
+    m = 0.25 * (a + b + c + d)
+    where = np.stack([np.stack([a, b, m], -2), np.stack([b, c, m], -2),
+                      np.stack([c, d, m], -2), np.stack([d, a, m], -2)]).reshape(-1, 3, 2)
+    f = _triangles(np.asarray(phi, float)).reshape(-1, 3)
+    cut = (f.min(axis=-1) < 0) & (f.max(axis=-1) >= 0)
+    f, where = f[cut], where[cut]
+    fa, fb = f, np.roll(f, -1, axis=-1)  # edges (0, 1), (1, 2), (2, 0)
+    pa, pb = where, np.roll(where, -1, axis=-2)
+    cross = (fa < 0) != (fb < 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(cross, fa / (fa - fb), 0.0)
+    points = pa + t[..., None] * (pb - pa)
+    first_two = np.argsort(~cross, axis=-1, kind="stable")[:, :2]
+    return np.take_along_axis(points, first_two[..., None], axis=-2)
+
+
+REINIT_BAND = 6  # cells: redistanced within this many cells of the zero line, clamped beyond
+
+
+def redistance(phi, h, band: int = REINIT_BAND) -> np.ndarray:
+    """phi replaced by the signed distance (sign kept) from each cell centre to the zero line
+    of its area-rule interpolant (`interface_segments`: exact to that polyline) within `band`
+    cells of a cut dual cell (by brute force over those cells x the segments), and by
+    sign x band h beyond (a clamped distance: the far field only keeps its sign)."""
+    from scipy.ndimage import binary_dilation
+    phi = np.asarray(phi, float)
+    seg = interface_segments(phi, h)
+    out = np.where(phi < 0, -1.0, 1.0) * band * h
+    if len(seg) == 0:
+        return out
+    tri = _triangles(phi)  # (4, cells - 1 per axis, 3): dual cells cut by the zero line
+    cut = ((tri.min(axis=-1) < 0) & (tri.max(axis=-1) >= 0)).reshape(
+        4, phi.shape[0] - 1, phi.shape[1] - 1).any(axis=0)
+    near = np.zeros(phi.shape, bool)
+    near[:-1, :-1] |= cut
+    near = binary_dilation(near, iterations=band + 1)  # +1: the dual cell's far corners
+    pts = MacGrid(phi.shape[0], phi.shape[1], h).cell_points()[near]
+    a, ab = seg[:, 0], seg[:, 1] - seg[:, 0]
+    length2 = np.sum(ab * ab, axis=-1)
+    dist = np.empty(len(pts))
+    step = max(1, 2 ** 21 // len(seg))
+    for lo in range(0, len(pts), step):  # chunks of cells (memory), each vectorised
+        rel = pts[lo:lo + step, None, :] - a[None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(length2 > 0, np.sum(rel * ab, axis=-1) / length2, 0.0)
+        gap = rel - np.clip(s, 0.0, 1.0)[..., None] * ab
+        dist[lo:lo + step] = np.sqrt(np.min(np.sum(gap * gap, axis=-1), axis=1))
+    out[near] = np.where(phi[near] < 0, -1.0, 1.0) * np.minimum(dist, band * h)
+    return out
+
+
 # -- advection ----------------------------------------------------------------------------------
 STAGE_TIMES = {"euler": (0.0,), "rk2": (0.0, 0.5), "rk3": (0.0, 0.5, 0.75)}  # c_k of each
 
@@ -181,10 +242,13 @@ def advect(phi, grid: MacGrid, velocity, t, dt, interpolant="linear", stepper="r
 
 
 class LevelSetAdvection:
-    """phi on the cells of `grid`, moved by `velocity(t, points)`; `step(dt, n)`."""
+    """phi on the cells of `grid`, moved by `velocity(t, points)`; `step(dt, n)`;
+    `reinit_every` k > 0: phi redistanced (`redistance`) after every k-th step (0: never)."""
 
-    def __init__(self, phi, grid: MacGrid, velocity, interpolant="linear", stepper="rk2"):
+    def __init__(self, phi, grid: MacGrid, velocity, interpolant="linear", stepper="rk2",
+                 reinit_every: int = 0):
         check(interpolant, stepper)
+        self.reinit_every = int(reinit_every)
         self.phi, self.grid, self.velocity = np.array(phi, float), grid, velocity
         self.interpolant, self.stepper, self.t, self.steps = interpolant, stepper, 0.0, 0
         self._points = grid.cell_points()
@@ -197,8 +261,11 @@ class LevelSetAdvection:
                                       self.interpolant, wall="even")
             self.steps += 1
             self.t = t1
+            if self.reinit_every and self.steps % self.reinit_every == 0:
+                self.phi = redistance(self.phi, self.grid.h)
         return self.phi
 
 
 __all__ = ["LevelSetAdvection", "STAGE_TIMES", "advect", "area", "backtrace_timed",
-           "disk_sdf", "intersection_area", "slotted_disk_sdf", "symmetric_difference"]
+           "REINIT_BAND", "disk_sdf", "interface_segments", "intersection_area", "redistance",
+           "slotted_disk_sdf", "symmetric_difference"]
