@@ -1,7 +1,7 @@
 """The level set of the advection tests (refsim.models.grid_fluid.level_set) and the prescribed
 flows (refsim.models.grid_fluid.prescribed_flow): the slotted disk's exact signed distance, the
 area rule, the symmetric difference, exact advection of a linear phi by a constant flow, the
-timed backtrace (H4's tableaux, its orders on a time-dependent flow)."""
+timed backtrace (advection.backtrace's tableaux, their orders on a time-dependent flow)."""
 import math
 
 import numpy as np
@@ -67,7 +67,7 @@ def test_slotted_disk_signed_distance_against_a_dense_boundary():
 
 
 @pytest.mark.parametrize("stepper", ["euler", "rk2", "rk3"])
-def test_timed_backtrace_is_h4s_backtrace_on_a_frozen_field(stepper):
+def test_timed_backtrace_is_the_groups_backtrace_on_a_frozen_field(stepper):
     """Same operations in the same order when the field ignores t: bit for bit."""
     flow = Flow(PrescribedFlow("leveque_vortex", period=3.0))
     pts = MacGrid(16, 16, 1 / 16).cell_points()

@@ -4,7 +4,7 @@ Zalesak's rotation): a `PrescribedFlow` part moves either
   refsim.integrators.first_order ("explicit_euler", "midpoint", "heun", "rk2" (Ralston),
   "rk4"; "implicit_euler" on the affine rotation only); observes x (n, 3), v = u(t, x);
 - or a level set: one `Grid` of model "level_set" with the cell field "phi" (points at the
-  MAC cell centres: origin = spacing / 2, square cells), advected by H4's semi-Lagrangian
+  MAC cell centres: origin = spacing / 2, square cells), advected by the group's semi-Lagrangian
   interpolants and backtrace tableaux (refsim.models.grid_fluid.level_set) through the
   analytic velocity; integrators "sl_<linear|cubic|cubic_clamped>:<euler|rk2|rk3>" (the
   names of refsim.integrators.semi_lagrangian); observes "grid.phi".

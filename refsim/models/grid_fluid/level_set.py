@@ -1,5 +1,5 @@
 """A level set advected by a prescribed velocity (issue 27, case 4: LeVeque's single vortex,
-Zalesak's slotted disk), with H4's semi-Lagrangian machinery (refsim.models.grid_fluid.
+Zalesak's slotted disk), with the group's semi-Lagrangian machinery (refsim.models.grid_fluid.
 advection: the same backtrace tableaux and interpolants).
 
 phi lives on the cells of the MAC convention (phi[i, j] at ((i + 1/2) h, (j + 1/2) h), walls
@@ -7,8 +7,9 @@ with even ghosts: zero normal gradient); the shape is {phi < 0}. One step of dt 
 t^(n+1): phi^(n+1)(x) = I[phi^n](x_d), the departure point x_d of the characteristic ending at
 the cell centre x, traced back by the backtrace stepper through the ANALYTIC velocity u(t, x)
 (refsim.models.grid_fluid.prescribed_flow), each stage at its own time (`backtrace_timed`:
-stage k at t^(n+1) - c_k dt; for a frozen field it is H4's `backtrace`, bit for bit). No grid
-sampling of u: the errors are the interpolant's and the backtrace's only. No reinitialisation.
+stage k at t^(n+1) - c_k dt; for a frozen field it is advection.backtrace, bit for bit). No
+grid sampling of u: the errors are the interpolant's and the backtrace's only. Optional
+reinitialisation (`redistance`, every k-th step; off by default).
 
 Exact signed distances (`disk_sdf`, `slotted_disk_sdf`) and the area rule:
 - area of {phi < 0} (`area`): phi is interpolated linearly on 4 triangles per dual cell (the
@@ -221,7 +222,7 @@ STAGE_TIMES = {"euler": (0.0,), "rk2": (0.0, 0.5), "rk3": (0.0, 0.5, 0.75)}  # c
 
 def backtrace_timed(points, velocity, t1, dt, stepper: str) -> np.ndarray:
     """Departure points at t1 - dt of the characteristics ending at `points` (..., 2) at t1,
-    through the time-dependent `velocity(t, points)`: H4's tableaux (advection.backtrace),
+    through the time-dependent `velocity(t, points)`: the tableaux of advection.backtrace,
     stage k evaluated at t1 - c_k dt (STAGE_TIMES)."""
     k1 = velocity(t1, points)
     if stepper == "euler":
@@ -233,12 +234,6 @@ def backtrace_timed(points, velocity, t1, dt, stepper: str) -> np.ndarray:
         k3 = velocity(t1 - 0.75 * dt, points - 0.75 * dt * k2)
         return points - dt * ((2.0 / 9.0) * k1 + (1.0 / 3.0) * k2 + (4.0 / 9.0) * k3)
     raise ValueError(f"backtrace must be one of {list(STAGE_TIMES)}, got {stepper!r}")
-
-
-def advect(phi, grid: MacGrid, velocity, t, dt, interpolant="linear", stepper="rk2"):
-    """phi (nx, ny) on the cells, one semi-Lagrangian step from t to t + dt."""
-    departure = backtrace_timed(grid.cell_points(), velocity, t + dt, dt, stepper)
-    return interpolate_at(phi, "cell", departure, grid, interpolant, wall="even")
 
 
 class LevelSetAdvection:
@@ -266,6 +261,6 @@ class LevelSetAdvection:
         return self.phi
 
 
-__all__ = ["LevelSetAdvection", "STAGE_TIMES", "advect", "area", "backtrace_timed",
+__all__ = ["LevelSetAdvection", "STAGE_TIMES", "area", "backtrace_timed",
            "REINIT_BAND", "disk_sdf", "interface_segments", "intersection_area", "redistance",
            "slotted_disk_sdf", "symmetric_difference"]
