@@ -124,7 +124,24 @@ def _projection_goals(rows):
               f"{mine[-1]['n']}^2: {exponent:.3f} <= {GOALS['exponent']} -> {met}")
         figures.append(_figure(f"projection_exponent_refsim_{mg}", exponent, "1", "refsim",
                                f"{mg}: log solve time / log cells"))
+    theirs = sorted((r for r in rows if (r["engine"], r["formulation"]) == ("taichi", "mgpcg")),
+                    key=lambda r: r["n"])
+    if len(theirs) > 1:  # for comparison, no goal
+        exponent = math.log(theirs[-1]["solve_s"] / theirs[0]["solve_s"]) / \
+            math.log(theirs[-1]["n"] ** 2 / theirs[0]["n"] ** 2)
+        print(f"   taichi mgpcg solve cost exponent in cells: {exponent:.3f}")
+        figures.append(_figure("projection_exponent_taichi_mgpcg", exponent, "1", "taichi",
+                               "mgpcg: log solve time / log cells"))
     for n in sorted({r["n"] for r in rows}):
+        pair = {r["engine"]: r for r in rows if r["n"] == n and
+                (r["engine"], r["formulation"]) in {("refsim", "multigrid"), ("taichi", "mgpcg")}}
+        if len(pair) == 2:  # the same algorithm on both sides (MGPCG, V(2,2), RBGS)
+            like = pair["taichi"]["solve_s"] / pair["refsim"]["solve_s"]
+            print(f"   like for like at {n}^2: refsim multigrid / taichi mgpcg throughput "
+                  f"{like:.2f}")
+            figures.append(_figure(f"projection_mg_ratio_{n}", like, "1", "refsim/taichi",
+                                   f"MGPCG cells/s, refsim multigrid over taichi mgpcg, "
+                                   f"{n}^2"))
         own = [r for r in rows if r["n"] == n and r["engine"] == "refsim"]
         tai = [r for r in rows if r["n"] == n and r["engine"] == "taichi"]
         if not own or not tai:
@@ -218,12 +235,13 @@ def main(quick: bool = False) -> list[dict]:
 
 
 def _warm_taichi():
-    """Compile taichi's fluid kernels before any timing (a 4 x 4 Sim's warm-up)."""
+    """Compile taichi's fluid kernels (every formulation's) before any timing."""
     engine = _engine("taichi")
     if engine is None:
         return
     from refsim.scene import FluidGrid, Scene
-    n = 4
-    part = FluidGrid(n, n, 0.25, np.zeros((n + 1, n)), np.zeros((n, n + 1)))
-    engine.build(Scene(parts=(part,), dim=2, meta={"solve": "projection"}), 1.0, "steady",
-                 "direct").close()
+    n = 8  # the smallest grid the multigrid takes
+    part = FluidGrid(n, n, 1.0 / n, np.zeros((n + 1, n)), np.zeros((n, n + 1)))
+    scene = Scene(parts=(part,), dim=2, meta={"solve": "projection"})
+    for form in engine.formulations(scene):
+        engine.build(scene, 1.0, "steady", form).close()
