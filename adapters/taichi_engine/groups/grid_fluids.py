@@ -61,6 +61,9 @@ def supports(engine, scene, integrator):
                 "PIC/FLIP/APIC, are not written as taichi kernels)")
     if scene.dim != 2:
         return f"{WHO}: 2D MAC grids (scene.dim 2), got dim {scene.dim}"
+    missing = sorted(scene.features() - FEATURES)
+    if missing:
+        return f"taichi does not simulate {', '.join(missing)}"
     if integrator is None:
         return None
     if _projection_only(scene):
@@ -293,5 +296,5 @@ def build(engine, scene, dt, integrator, formulation):
 
 
 MODEL_GROUP = ModelGroup(name="grid_fluids", build=build, claims=claims,
-                         parts=None, features=FEATURES,  # supports names other parts
+                         parts=None, features=None,  # supports names other parts first
                          supports=supports, formulations=formulations, integrators=INTEGRATORS)
