@@ -24,19 +24,10 @@ import numpy as np
 from refsim.models.poisson_solvers import MAX_CYCLES
 
 from .fluid_kernels import grid_t
+from .fluid_solvers import MIN_COARSE, multigrid_reason  # noqa: F401  (taichi-free)
 from .kernel_types import f64, i32, ti
 
-MIN_COARSE = 4
 SWEEPS = 2
-
-
-def multigrid_reason(cells, marks) -> str | None:
-    if marks is not None and np.any(np.asarray(marks) != 0):
-        return "taichi mgpcg: grids of fluid cells only (no air or solid marks)"
-    if any(n % 2 or n < 2 * MIN_COARSE for n in cells):
-        return (f"taichi mgpcg: cells per axis even and at least {2 * MIN_COARSE}, got "
-                f"{tuple(cells)}")
-    return None
 
 
 @ti.func

@@ -45,6 +45,20 @@ VISCOSITY_TEXT = ("backward Euler: (I - dt nu M) u = u* + dt nu c per face compo
                   "per Sim")
 
 
+MIN_COARSE = 4  # cells per axis on the multigrid's coarsest level
+
+
+def multigrid_reason(cells, marks) -> str | None:
+    """Why mgpcg (fluid_multigrid) does not take a grid, None if it does (here, free of
+    taichi, so that listing the formulations does not initialise it)."""
+    if marks is not None and np.any(np.asarray(marks) != FLUID):
+        return "taichi mgpcg: grids of fluid cells only (no air or solid marks)"
+    if any(n % 2 or n < 2 * MIN_COARSE for n in cells):
+        return (f"taichi mgpcg: cells per axis even and at least {2 * MIN_COARSE}, got "
+                f"{tuple(cells)}")
+    return None
+
+
 def active_faces(marks, periodic):
     """(au (nx + 1, ny), av (nx, ny + 1)) int32: 1 where the projection moves the face."""
     nx, ny = marks.shape
@@ -98,7 +112,7 @@ class PressureSolver:
         if reduced == 0:
             return
         if method == "mgpcg":
-            from .fluid_multigrid import CellMultigrid, multigrid_reason
+            from .fluid_multigrid import CellMultigrid
             reason = multigrid_reason((nx, ny), marks)
             if reason:
                 raise ValueError(reason)

@@ -82,7 +82,7 @@ def supports(engine, scene, integrator):
 
 def formulations(engine, scene):
     """direct always; mgpcg on all-fluid grids of even cell counts (fluid_multigrid)."""
-    from ..fluid_multigrid import multigrid_reason
+    from ..fluid_solvers import multigrid_reason
     part = scene.part(FluidGrid)
     if part is None or multigrid_reason((part.nx, part.ny), part.marks):
         return FORMULATIONS[:1]
