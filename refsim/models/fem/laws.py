@@ -19,7 +19,10 @@ Simulation (ACM TOG 2018). Summary and slips: docs/models.md#fem-elements-and-st
   rotation-variant SVD: the last singular value takes the sign of det F, so R is a rotation
   even for an inverted element); slide 001's eps = 1/2 (F~ + F~^T) - I with F~ = R^T F = S,
   Psi = mu |S - I|^2 + lam/2 tr(S - I)^2 = mu sum (s_i - 1)^2 + lam/2 (sum s_i - d)^2,
-  P = R sigma(S - I) = 2 mu (F - R) + lam tr(S - I) R (Sifakis & Barbic eq. 3.4).
+  P = R sigma(S - I) = 2 mu (F - R) + lam tr(S - I) R (Sifakis & Barbic eq. 3.4). The stress
+  finds R without a per-element SVD (refsim.models.fem.polar: the 2D closed form; in 3D and
+  plane strain, where det F > 0, the same R by Newton's iteration or the 2D closed form, else
+  the SVD); energy and tangent take `_polar` (3D: the SVD).
 - "neo_hookean": the stable Neo-Hookean energy of Smith et al. (2018, eq. 14) in d dimensions,
   the energy pybullet's deformable world uses (btDeformableNeoHookeanForce, d = 3):
   Psi = mu/2 (I_C - d) + lam/2 (J - alpha)^2 - mu/2 log(I_C + 1) - Psi(I),
