@@ -27,11 +27,12 @@ form), unit thickness.
    contiguous entries: refsim.models.fem.elements) against taichi's float64 kernels (its time
    loop inside one kernel), each `Sim.step(k)` after a warm-up (compilation), best of repeats,
    at 10^4 and 10^5 triangles (with or without --quick). Goal: in-house >= 1/3 of taichi
-   CPU's throughput at 10^5. Measured 2026-11-27 on the shared 2-core machine under a load of
-   7-9 (so only ratios from one run): 0.25-0.34 at 10^5 and 0.22-0.26 at 10^4 in two --quick
-   runs (0.02-0.04 before the entry-by-entry path, alternated with them); by CPU time (best of
-   5, the two engines alternated) 0.22-0.26 at 10^5: refsim 9.8e6/s, taichi 3.8e7-4.4e7/s.
-   Not met. Where a refsim step goes at 10^5 (CPU time per element, alone, best of 7, lighter
+   CPU's throughput at 10^5. Measured 2026-11-27 on the shared 2-core machine (only ratios
+   from one run mean anything there): at a load of ~3, 0.30 at 10^5 (refsim 1.19e7/s, taichi
+   3.92e7/s) and 0.36 at 10^4 by this item with 3 repeats, 0.29 and 0.32 by CPU time (best of
+   5, the engines alternated); the path before, alternated with it: 0.034 and 0.033. At a load
+   of 7-9 the ratio fell to 0.22-0.34 (numpy's passes suffer more from the shared caches).
+   The goal is not met (0.29-0.30 at 10^5). Where a refsim step goes at 10^5 (CPU time per element, alone, best of 7, lighter
    load): the edge map 15 ns (8.0e5 entries), F 11 ns (6.3e5), the corotated stress 17 ns (18
    passes), the force map 9 ns (8.5e5), the stepper's update 5 ns, copies 2 ns: ~60 ns (66 ns
    as one call), about 1 ns per element per numpy pass and 1-2 ns per sparse entry on this
