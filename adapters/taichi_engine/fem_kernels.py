@@ -11,9 +11,10 @@ v = 0 every stepper leaves them exactly where they are). Per element e with node
 c_0..c_d: Ds = [x_c1 - x_c0, ...] (columns), F = Ds Dm^-1, H = (-V) (P(F) Dm^-T); node c_a
 (a >= 1) gets column a - 1 of H, node c_0 minus their sum (refsim's element_forces), summed
 into the nodes with atomic adds in element order (every kernel's outer loop is serialized,
-so each node's sum runs in refsim's order: its incidence matrix's row, elements ascending;
-the masses come out bit-identical, the forces within round-off: numpy's batched matmul and
-LAPACK's det round differently from these expressions).
+so each node's sum runs over its elements ascending, the order of refsim's incidence matrix
+rows: the masses come out bit-identical; the forces within round-off: refsim's explicit path
+(refsim.models.fem.tensors) forms F and the element forces through sparse maps entry by entry,
+and its other paths by numpy's batched matmul and LAPACK's det, which round differently).
 Masses m = sum rho V / (d + 1) the same way; a = (f + ext) inv_m with ext = loads + m g and
 inv_m = 1 / m on free nodes (refsim's accel: forces times 1 / m).
 
