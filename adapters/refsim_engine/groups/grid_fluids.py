@@ -26,7 +26,7 @@ import numpy as np
 from refsim.engine import EngineFailure, ModelGroup, Sim
 from refsim.integrators.semi_lagrangian import SCHEMES, parse_scheme, scheme_info
 from refsim.integrators.spec import spec_name
-from refsim.models.grid_fluid.projection import METHODS
+from refsim.models.grid_fluid.projection import ALL_METHODS, METHODS
 from refsim.models.grid_fluid.projection_mg import multigrid_reason
 from refsim.models.grid_fluid.solver import FluidSolver
 from refsim.scene import FluidGrid
@@ -71,9 +71,7 @@ def formulations(engine, scene):
     """The projection solvers; "multigrid" where its hierarchy applies (fluid cells only, even
     counts)."""
     part = scene.part(FluidGrid)
-    if multigrid_reason(part.shape, part.marks):
-        return tuple(m for m in METHODS if m != "multigrid")
-    return METHODS
+    return METHODS if multigrid_reason(part.shape, part.marks) else ALL_METHODS
 
 
 class FluidSim(Sim):

@@ -16,7 +16,8 @@ Null space: with no AIR cell (walls, periodic axes) A's kernel is the constant, 
 mean over the cells is zero up to round-off (the boundary flux vanishes); b's mean is removed
 (the compatible right-hand side) and the solution's mean fixed to zero afterwards.
 
-Solvers (`METHODS`; the criterion of refsim.models.poisson_solvers: ||b - A p||_2 <=
+Solvers (`METHODS` for every grid, `ALL_METHODS` adds "multigrid"; the criterion of
+refsim.models.poisson_solvers: ||b - A p||_2 <=
 rtol ||b||_2 on the TRUE residual, restarting from the iterate at most MAX_RESTARTS times):
 - "direct": SuperLU (the same symmetric-mode options as poisson_solvers.SUPERLU_OPTIONS) of
   A, with the first fluid cell's pressure pinned to 0 when singular (the reduced matrix is
@@ -49,7 +50,9 @@ from refsim.scene.fluid_grid import AIR, FLUID, SOLID
 from .mac import MacGrid, divergence
 from .projection_mg import CellMultigrid, mgpcg, multigrid_reason
 
-METHODS = ("direct", "cg", "pyamg", "multigrid")
+METHODS = ("direct", "cg", "pyamg")  # for every grid, marks included
+MULTIGRID = "multigrid"  # fluid cells only, even counts (projection_mg.multigrid_reason)
+ALL_METHODS = METHODS + (MULTIGRID,)
 SOLVER_TEXT = {
     "direct": "scipy.sparse.linalg.splu (SuperLU) of A = G^T G, symmetric mode, MMD_AT_PLUS_A "
               "ordering; one cell pinned where A is singular; factorised once per grid",
@@ -151,8 +154,8 @@ class PressureSystem:
     # -- solvers -------------------------------------------------------------------------------
     def solve(self, b, method="direct", rtol=1e-10):
         """(p on the fluid cells, info {iterations, residual, setup_s, solve_s, method})."""
-        if method not in METHODS:
-            raise ValueError(f"projection method must be one of {list(METHODS)}, got "
+        if method not in ALL_METHODS:
+            raise ValueError(f"projection method must be one of {list(ALL_METHODS)}, got "
                              f"{method!r}")
         t0 = time.perf_counter()
         norm_b = float(np.linalg.norm(b))
