@@ -34,7 +34,10 @@ Observes "grid.u" (nx + 1, ny), "grid.v" (nx, ny + 1) (refsim's layout, staggere
 last projection: the true relative residual of D G p = D u* when PhiFlow's Poisson matrix is
 D G, as for walls and periodic axes) and "iterations" (its CG's, from a phiml SolveTape).
 Refused with the reason: anything beside the grid, 3D, cell marks (free surface, solid cells),
-a body force, the one-projection scenes (meta solve = projection).
+a body force, the one-projection scenes (meta solve = projection), and "phi_mac_cormack" with a
+moving lid (PhiFlow 3.4.0's MacCormack fails on the lid's vector extrapolation: AssertionError
+"Cannot pad tensor ... non-batch dimension 'vector' is missing"; it runs on still walls and
+periodic axes).
 """
 from __future__ import annotations
 
@@ -89,6 +92,10 @@ def supports(engine, scene, integrator):
         spec = IntegratorSpec.parse(integrator)
         if spec.name not in INTEGRATORS or spec.colon:
             return f"{WHO}: integrator one of {list(INTEGRATORS)}, got {integrator!r}"
+        if spec.name == "phi_mac_cormack" and part.lid:
+            return (f"{WHO}: PhiFlow 3.4.0's advect.mac_cormack fails on a moving wall's "
+                    "vector extrapolation (AssertionError: Cannot pad tensor ... because "
+                    "non-batch dimension 'vector' is missing); phi_semi_lagrangian runs it")
     return None
 
 

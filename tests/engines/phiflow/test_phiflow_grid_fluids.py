@@ -155,3 +155,21 @@ def test_taylor_green_decay_matches_the_bilinear_theory():
     measured = (rate - 2 * p["nu"]) / 2
     predicted = case.predicted_viscosity(p, "linear", dt)
     assert abs(measured / predicted - 1) <= 0.03, (measured, predicted)
+
+
+def test_refusals_name_their_reason():
+    """Every other part kind is refused with the peer's sentence (the pendulum's particles);
+    MacCormack is refused on the cavity's moving lid (PhiFlow 3.4.0 fails there) and offered on
+    Taylor-Green's periodic grid; the one-projection scene is refused."""
+    engine = PhiflowEngine()
+    pendulum = get_case("pendulum")
+    assert engine.supports(pendulum.scene(pendulum.variant_params("default", {}))) \
+        .startswith("PhiFlow peer: runs only the grid-fluid cases")
+    cavity, tg = get_case("cavity"), get_case("taylor_green")
+    lid_scene = cavity.scene(cavity.variant_params("default", {}))
+    assert "mac_cormack fails on a moving wall" in engine.supports(lid_scene, "phi_mac_cormack")
+    assert engine.supports(lid_scene, "phi_semi_lagrangian") is None
+    assert engine.supports(tg.scene(tg.variant_params("default", {})), "phi_mac_cormack") is None
+    projection = get_case("projection_manufactured")
+    assert "time stepping only" in engine.supports(
+        projection.scene(projection.variant_params("walls", {})))
