@@ -199,9 +199,9 @@ class PhiFluidSim(Sim):
             "projection": (f"fluid.make_incompressible(u, solve=Solve('CG', rel_tol="
                            f"{part.rtol:g}, abs_tol=0, max_iterations={2 * part.nx * part.ny}"
                            ")): PhiFlow's CG stops on its recursive residual ||r||_2 <= "
-                           "rel_tol ||div u*||_2; the singular pressure matrix (constants) bordered by a "
-                           "row and column of ones (phiml, rank_deficiency=1; its RuntimeWarning "
-                           "silenced); p = p_phi / dt, mean removed"),
+                           "rel_tol ||div u*||_2; the singular pressure matrix (constants) "
+                           "bordered by a row and column of ones (phiml, rank_deficiency=1; its "
+                           "RuntimeWarning silenced); p = p_phi / dt, mean removed"),
             "boundary": re.sub(r"\x1b\[[0-9;]*m", "", str(self.ext)),
             "precision": "float64 (phi.math.precision(64); the field's dtype checked)",
             "dtype": "float64", "backend": default_backend().name, "threads": 1,

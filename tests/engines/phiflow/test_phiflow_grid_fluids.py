@@ -118,8 +118,10 @@ def test_projection_divergence_within_its_tolerance(sides):
     """A random field (not divergence-free) stepped once with nu = 0 and a tiny dt (advection
     moves it by 1e-6 cells): the projected field's true relative residual ||D u||_2 /
     ||D u*||_2, by refsim's divergence, is within the part's rtol = 1e-8. PhiFlow's CG stops
-    on its recursive residual <= rel_tol ||b||; the true one differs by round-off (~1e-15 here,
-    measured), far below the margin between 1e-8 and what it reaches."""
+    on its recursive residual <= rel_tol ||b||, which the true one follows to round-off:
+    measured 4.7e-9 on walls (29 iterations) and 3e-16 periodic (12: the periodic 8^2
+    Laplacian has few distinct eigenvalues, CG ends exact). A field left unprojected, or
+    mapped to the wrong faces, has a residual of order 1."""
     n, periodic = 8, sides == "periodic"
     u, v = _random_faces(np.random.default_rng(5), n, periodic)
     part = FluidGrid(n, n, 1.0 / n, u, v, sides=sides, rtol=1e-8)
