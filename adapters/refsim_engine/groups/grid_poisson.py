@@ -9,7 +9,12 @@ integrator, "steady": no time stepping, one `step()` is one complete solve from 
 initial guess, solver setup included (each step re-solves from it, so a timing pass of fresh
 Sims times the whole solve). Formulations (named alternatives of one model): "direct" (SuperLU, the default),
 "cg" (no preconditioner), "multigrid" (in-house geometric multigrid, 2^k + 1 points per axis),
-"pyamg" (smoothed aggregation, CG-accelerated).
+"pyamg" (smoothed aggregation, CG-accelerated), and on a 2D grid of square cells "p1": the
+P1 finite-element Poisson of the FEM group (refsim.models.fem.poisson, slide 000's weak form)
+on the grid's points as nodes, each cell split into two right triangles along its lower-left
+to upper-right diagonal, lumped load, SuperLU: its stiffness is h^2 times the 5-point stencil,
+so it solves the same discrete system and meets the same exact discrete solution (the FEM
+issue's case 8, run through the FDM case).
 
 Observes "grid.u" (the solution, the grid's shape), "grid.f" (the rhs, unchanged), "residual"
 (the relative residual of the last solve, recomputed by the slice stencil; that of the initial
@@ -17,6 +22,8 @@ guess before any step) and "iterations" (iterations or cycles of the last solve;
 0 before any step).
 """
 from __future__ import annotations
+
+import numpy as np
 
 from refsim.engine import ModelGroup, Sim
 from refsim.models.multigrid import multigrid_reason
@@ -33,6 +40,9 @@ SOLVER_TEXT = {
     "cg": "scipy.sparse.linalg.cg on -A (SPD), no preconditioner",
     "multigrid": "in-house geometric multigrid (refsim.models.multigrid)",
     "pyamg": "pyamg.smoothed_aggregation_solver(-A).solve(-b, accel='cg') (defaults)",
+    "p1": "P1 finite elements on the grid's points (two right triangles a cell, lower-left "
+          "to upper-right diagonal), k_ij = int grad phi_j . grad phi_i, lumped load A_i f_i; "
+          "scipy.sparse.linalg.splu (SuperLU) of -K_ff (refsim.models.fem.poisson)",
 }
 
 
@@ -54,14 +64,47 @@ def supports(engine, scene, integrator):
     return None
 
 
+def p1_reason(grid) -> str | None:
+    """Why the P1 formulation does not apply to `grid` (None where it does)."""
+    if len(grid.shape) != 2 or grid.spacing[0] != grid.spacing[1]:
+        return (f"refsim poisson formulation 'p1': a 2D grid of square cells, got "
+                f"{len(grid.shape)}D with spacing {grid.spacing}")
+    return None
+
+
 def formulations(engine, scene):
-    return METHODS
+    grid = scene.part(Grid)
+    return METHODS + (("p1",) if grid is not None and p1_reason(grid) is None else ())
+
+
+class P1Grid:
+    """The grid's points as P1 nodes (grid point (a, b) is node a n_1 + b: C order), each cell
+    split into the right triangles of refsim.models.fem.meshes.rectangle_triangles (whose node
+    j (nx + 1) + i is grid point (j, i)); lumped load, solved by SuperLU."""
+
+    def __init__(self, grid):
+        from refsim.models.fem.meshes import rectangle_triangles
+        from refsim.models.fem.poisson import P1Poisson
+        n0, n1 = grid.shape
+        h = grid.spacing[0]
+        nodes, tris = rectangle_triangles(n1 - 1, n0 - 1, (n1 - 1) * h, (n0 - 1) * h)
+        self.grid, self.p1 = grid, P1Poisson(nodes, tris)
+        self.fixed = ~PoissonProblem.of(grid).free.reshape(-1)
+
+    def solve(self, rtol):
+        from refsim.models.fem.poisson import solve
+        u0 = np.asarray(self.grid.fields["u"], float).reshape(-1)
+        f = np.asarray(self.grid.fields["f"], float).reshape(-1)
+        u, info = solve(self.p1.problem(f, self.fixed, u0), "direct", rtol)
+        return u.reshape(self.grid.shape), info
 
 
 class PoissonSim(Sim):
     """One Dirichlet Poisson problem, solved afresh from the initial guess at every step."""
 
     def __init__(self, grid, dt, method):
+        if method == "p1" and p1_reason(grid):
+            raise ValueError(p1_reason(grid))
         if method == "multigrid" and multigrid_reason(grid.shape):
             raise ValueError(f"refsim poisson variant 'multigrid': "
                              f"{multigrid_reason(grid.shape)}; use direct, cg or pyamg")
@@ -75,8 +118,13 @@ class PoissonSim(Sim):
 
     def _step_impl(self, n):
         for _ in range(n):  # every step the same complete solve from the initial guess
-            problem = PoissonProblem.of(self.grid)
-            self.u, info = solve_problem(problem, self.method, self.rtol, dict(self.options))
+            if self.method == "p1":  # its residual is the P1 system's: report L_h's
+                self.u, info = P1Grid(self.grid).solve(self.rtol)
+                info = {**info, "residual": self.problem.residual(self.u)}
+            else:
+                problem = PoissonProblem.of(self.grid)
+                self.u, info = solve_problem(problem, self.method, self.rtol,
+                                             dict(self.options))
             self.iterations, self.residual = info["iterations"], info["residual"]
 
     def _observe(self):
