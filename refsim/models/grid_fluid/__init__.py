@@ -26,6 +26,11 @@ sampling, velocity_at), advection (semi-Lagrangian: backtraces euler / rk2 / rk3
 interpolants linear / cubic (Catmull-Rom) / cubic_clamped), projection (PressureSystem: G,
 A = G^T G, direct / cg / pyamg solves to a relative residual), viscosity (explicit and
 implicit, no-slip walls, the lid), solver (FluidSolver: one step; scheme names
-"sl_<interpolant>:<backtrace>" and their orders), transfer (particle <-> grid: PIC, FLIP,
-APIC).
+"sl_<interpolant>:<backtrace>", their orders in refsim.integrators.semi_lagrangian),
+projection_mg (the cell-centred multigrid preconditioner of the projection's MGPCG), transfer
+and transfer_theory (particle <-> grid: PIC, FLIP, the blend and APIC in the MAC form; the
+momenta, energies and loss identities they are tested against), particle_fluid (the
+particle-fluid step: P2G, marks, forces, projection with p = 0 in air, G2P, particle
+advection), prescribed_flow and level_set (analytic flows, LeVeque's vortex and Zalesak's
+rotation; a level set advected through them with exact signed distances and the area rule).
 """
