@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from refsim_adapters.common.grid_fluids import claims, integrator_reason, scene_reason
 from refsim.engine import EngineFailure, ModelGroup, Sim
-from refsim.integrators.semi_lagrangian import SCHEMES, parse_scheme, scheme_info
-from refsim.integrators.spec import spec_name
+from refsim.integrators.semi_lagrangian import SCHEMES, scheme_info
 from refsim.models.grid_fluid.projection import ALL_METHODS, METHODS
 from refsim.models.grid_fluid.projection_mg import multigrid_reason
 from refsim.models.grid_fluid.solver import FluidSolver
@@ -37,34 +37,9 @@ INTEGRATORS = SCHEMES + ("steady",)
 FEATURES = frozenset({"fluid_grid", "viscosity", "gravity", "free_surface", "solid_cells"})
 
 
-def claims(scene) -> bool:
-    return scene.part(FluidGrid) is not None
-
-
-def _projection_only(scene) -> bool:
-    return scene.meta.get("solve") == "projection"
-
-
 def supports(engine, scene, integrator):
-    if scene.part_kinds() != {"fluid_grids"}:
-        return (f"refsim grid fluids: a fluid grid alone, got also "
-                f"{', '.join(sorted(scene.part_kinds() - {'fluid_grids'}))}")
-    if scene.dim != 2:
-        return f"refsim grid fluids: 2D MAC grids (scene.dim 2), got dim {scene.dim}"
-    if integrator is None:
-        return None
-    if _projection_only(scene):
-        return None if integrator == "steady" else (
-            f"refsim grid fluids: the scene asks for one projection (meta solve = projection): "
-            f"integrator 'steady' only, got {integrator!r}")
-    if spec_name(integrator) == "steady":
-        return ("refsim grid fluids: 'steady' is one projection, for scenes whose meta asks "
-                "solve = projection; time stepping offers " + ", ".join(SCHEMES))
-    try:
-        parse_scheme(integrator)
-    except ValueError as exc:
-        return f"refsim {exc}"
-    return None
+    return (scene_reason(scene, "refsim grid fluids")
+            or integrator_reason(scene, integrator, "refsim grid fluids"))
 
 
 def formulations(engine, scene):

@@ -32,9 +32,9 @@ import time
 
 import numpy as np
 
+from refsim_adapters.common.grid_fluids import claims, integrator_reason, scene_reason
 from refsim.engine import EngineFailure, ModelGroup, Sim
 from refsim.integrators.semi_lagrangian import SCHEMES, parse_scheme, scheme_info
-from refsim.integrators.spec import spec_name
 from refsim.scene import FluidGrid
 from refsim.scene.fluid_grid import SOLID
 
@@ -46,38 +46,15 @@ FEATURES = frozenset({"fluid_grid", "viscosity", "gravity", "free_surface", "sol
 WHO = "taichi grid fluids"
 
 
-def claims(scene) -> bool:
-    return scene.part(FluidGrid) is not None
-
-
-def _projection_only(scene) -> bool:
-    return scene.meta.get("solve") == "projection"
-
-
 def supports(engine, scene, integrator):
-    if scene.part_kinds() != {"fluid_grids"}:
-        others = ", ".join(sorted(scene.part_kinds() - {"fluid_grids"}))
-        return (f"{WHO}: a fluid grid alone, got also {others} (the particle-grid transfers, "
-                "PIC/FLIP/APIC, are not written as taichi kernels)")
-    if scene.dim != 2:
-        return f"{WHO}: 2D MAC grids (scene.dim 2), got dim {scene.dim}"
+    reason = scene_reason(scene, WHO, " (the particle-grid transfers, PIC/FLIP/APIC, are not "
+                                      "written as taichi kernels)")
+    if reason:
+        return reason
     missing = sorted(scene.features() - FEATURES)
     if missing:
         return f"taichi does not simulate {', '.join(missing)}"
-    if integrator is None:
-        return None
-    if _projection_only(scene):
-        return None if integrator == "steady" else (
-            f"{WHO}: the scene asks for one projection (meta solve = projection): integrator "
-            f"'steady' only, got {integrator!r}")
-    if spec_name(integrator) == "steady":
-        return (f"{WHO}: 'steady' is one projection, for scenes whose meta asks solve = "
-                "projection; time stepping offers " + ", ".join(SCHEMES))
-    try:
-        parse_scheme(integrator)
-    except ValueError as exc:
-        return f"{WHO}: {exc}"
-    return None
+    return integrator_reason(scene, integrator, WHO)
 
 
 def formulations(engine, scene):
