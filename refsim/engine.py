@@ -223,6 +223,8 @@ class Engine:
     dims: tuple = (3,)
     integrators: tuple = ()
     reference = False  # the in-house reference simulator: listed (and reported) first
+    peer = False  # an optional peer for a few cases: run only where named (--engine NAME),
+    #               never by a plain `refsim run` (its rows elsewhere are refusals)
     equivalents: dict = {}  # own integrator name -> the refsim stepper it equals on an
     #                         undamped spring (the stability search's theory), where it differs
     refusals: dict = {}  # part kind or feature -> the sentence saying why the engine refuses it

@@ -19,6 +19,7 @@ OTHER_KINDS = ("emitter", "flocking", "fluid", "gravity_pairs", "grids", "joints
 class PhiflowEngine(Engine):
     name = "phiflow"
     package = "phi"  # the import name; the distribution is `phiflow` (version())
+    peer = True  # the cavity and Taylor-Green only: `refsim run --engine phiflow ...`
     dims = (2,)
     integrators = INTEGRATORS
     refusals = {kind: SENTENCE for kind in OTHER_KINDS}

@@ -58,7 +58,8 @@ def expand(cases=None, engines=None, integrators=None, dts=None, quick=False, va
     cases = list(cases or case_names())
     for name in cases:
         get_case(name)
-    engines = [get_engine(e) for e in (engines or engine_names())]
+    engines = ([get_engine(e) for e in engines] if engines else
+               [e for e in map(get_engine, engine_names()) if not e.peer])
     dts = [check_dt(d) for d in dts] if dts else None
     if integrators:
         check_integrators(integrators, engines)

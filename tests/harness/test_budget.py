@@ -22,8 +22,9 @@ WORKERS = 2
 def _default_matrix():
     """The default run's jobs on the installed engines and cases (not those another test
     registered at run time in this process: `refsim run` never sees them)."""
-    from refsim.registry import entries
-    installed = [n for n, e in entries("engine").items() if e.origin != "registered at run time"]
+    from refsim.registry import entries, get_engine
+    installed = [n for n, e in entries("engine").items() if e.origin != "registered at run time"
+                 and not get_engine(n).peer]  # a peer runs only where named
     cases = [n for n, e in entries("case").items() if e.origin != "registered at run time"]
     return expand(cases=cases, engines=installed)
 

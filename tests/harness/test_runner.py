@@ -48,6 +48,21 @@ def test_failure_is_a_row_not_a_crash(fake_engines, tmp_path):
     assert len(load_results(tmp_path / "r1")) == 3
 
 
+class PeerEngine(BrokenEngine):
+    name = "peer"
+    peer = True
+
+
+def test_a_peer_engine_runs_only_where_named():
+    registry.register("engine", "peer", f"{__name__}:PeerEngine")
+    try:
+        assert "peer" not in {j.engine for j in expand(["free_fall"], quick=True)}
+        named = expand(["free_fall"], ["peer"], ["symplectic_euler"], quick=True)
+        assert named and {j.engine for j in named} == {"peer"}
+    finally:
+        registry.unregister("engine", "peer")
+
+
 def test_divergence_is_detected_early():
     # explicit Euler on the undamped spring at w dt = 0.5: energy x 1.25 per step
     row = run_job(Job("stiff_spring", "default", "refsim", "", "explicit_euler", 5e-3),
