@@ -103,6 +103,19 @@ def test_gravity_ten_percent_high_is_caught_by_the_energy(spec):
     """The engine's gravity 10 % above the case's: the fluid gains 10 % more kinetic energy
     than the case's potential energy releases: E (case's g) rises (measured +0.060 FLIP,
     +0.028 APIC of M g a), which no correct run does. Against the data it is not caught:
-    the front error moves by less than the grid's own error (0.171 -> 0.115 FLIP)."""
+    the front error moves by less than the grid's own error (0.171 -> 0.115 FLIP).
+    Planted once by hand in ParticleFluid (gravity x 1.1): this test and the default rows'
+    energy_gain fail (4 tests). Gravity x 0.9 is not caught by anything here: the fluid
+    only loses energy, and the front error (FLIP 0.33, APIC 0.65) stays inside the grid's
+    own front error (bound 2.13)."""
     base, high = (_run_with_engine_gravity(spec, f) for f in (1.0, 1.1))
     assert base["energy_gain"] <= GAIN_BOUND < 0.01 < high["energy_gain"]
+
+
+def test_gravity_off_is_caught_by_the_front():
+    """No gravity: the column stays (Z 0.99 at the end), front_err_rms 5.85 against the bound
+    2.13 at a/h = 8."""
+    p = CASE.variant_params(DEFAULT)
+    off = _run_with_engine_gravity("flip_quadratic_bspline", 0.0)
+    assert off["front_err_rms"] > 2 * CASE.tolerance(p, "flip_quadratic_bspline", 1,
+                                                     CASE.reference_dt(p))[0]
