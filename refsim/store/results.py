@@ -198,6 +198,9 @@ def load_results(run_dir: Path) -> pd.DataFrame:
     for col in ("variant", "engine_variant", "reason"):
         if col in table:
             table[col] = table[col].astype(str)
+    # the column-by-column replacements above leave one block per column: consolidate, or
+    # every later insert (the report's model_group column) warns of a fragmented frame
+    table = table.copy()
     from refsim.verdicts import upgrade_table
     return upgrade_table(table)  # a run stored before the two verdicts reads with them
 
