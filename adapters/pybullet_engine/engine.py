@@ -28,6 +28,8 @@ class PybulletEngine(Engine):
     dims = (3,)
     integrators = ("symplectic_euler",)
     refusals = {
+        "prescribed_flow": "pybullet has no prescribed-flow advection (massless tracers or a "
+                           "level set moved by an analytic velocity field)",
         "grids": grid_refusal_sentence(
             "pybullet", "it simulates rigid bodies, multibodies and soft-body meshes"),
         "fluid_grids": ("pybullet has no grid fluid solver (no MAC grid, advection or pressure "

@@ -20,6 +20,8 @@ class PymunkEngine(Engine):
     dims = (2, 3)
     integrators = ("symplectic_euler_dk",)
     refusals = {
+        "prescribed_flow": "pymunk has no prescribed-flow advection (massless tracers or a "
+                           "level set moved by an analytic velocity field)",
         **{kind: f"pymunk does not simulate {kind}" for kind in NOT_SIMULATED},
         "grids": grid_refusal_sentence("pymunk", "it is a 2D rigid-body engine"),
         "fluid_grids": ("pymunk has no grid fluid solver (no MAC grid, advection or pressure "
