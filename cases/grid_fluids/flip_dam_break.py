@@ -4,10 +4,11 @@ blend, APIC); the surge front against Martin & Moyce (1952), beside the SPH case
 case 6).
 
 Reference: Martin & Moyce's Table 2 (`cases/data/martin_moyce_1952_table2_front_n2eq2.csv`,
-read by the SPH dam break's `martin_moyce`): Z = x/a against T = t sqrt(2 g / a). Their time
-origin was fitted (runs aligned at T = 1.19, Z = 1.44), so the SPH case's rule is reused: one
-time shift s, |s| <= 0.3, fitted by least squares (`time_shift`), the simulated front at T - s
-compared with the measurement at T, the error per point |dZ|, `front_err_rms` their RMS.
+read by `refsim_cases._martin_moyce`, shared with the SPH dam break): Z = x/a against
+T = t sqrt(2 g / a). Their time origin was fitted (runs aligned at T = 1.19, Z = 1.44), so
+the SPH case's rule is reused: one time shift s, |s| <= 0.3, fitted by least squares
+(`time_shift`), the simulated front at T - s compared with the measurement at T, the error
+per point |dZ|, `front_err_rms` their RMS.
 
 Scene: the tank [0, L] x [0, 2.5 a] (L = tank_length a, the SPH tank's height) with walls all
 round, square cells h = a / resolution; the column [0, a] x [0, 2a] seeded with 2 x 2
@@ -68,8 +69,7 @@ import numpy as np
 from refsim.case import Case, Param
 from refsim.models.grid_fluid.particle_fluid import ADVECTIONS
 from refsim.scene import FluidGrid, Particles, Scene
-from refsim_cases.sph.dam_break import CASE as SPH_DAM_BREAK
-from refsim_cases.sph.dam_break import clock_spread_rms, martin_moyce
+from refsim_cases._martin_moyce import clock_spread_rms, fit_time_shift, front_figure
 
 INCH = 0.0254
 RHO0 = 1000.0  # kg/m^3, water
@@ -190,7 +190,7 @@ class FlipDamBreak(Case):
 
     def fit(self, p, T_sim, Z_sim):
         """The SPH case's: time shift s (|s| <= 0.3) and residuals Z_sim(T - s) - Z."""
-        return SPH_DAM_BREAK.fit(p, T_sim, Z_sim)
+        return fit_time_shift(T_sim, Z_sim)
 
     def error(self, p, observed, reference):
         return np.abs(self.fit(p, observed["T"], observed["front"])[1])
@@ -222,7 +222,7 @@ class FlipDamBreak(Case):
         return 0.15
 
     def figures(self, p):
-        return SPH_DAM_BREAK.figures(p)
+        return front_figure()
 
     # -- tolerance -----------------------------------------------------------------------------
     def error_budget(self, p) -> dict:

@@ -45,32 +45,11 @@ reports/dam_break_study/.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
+from refsim_cases._martin_moyce import fit_time_shift, front_figure
 from refsim_cases.sph._sph_tank import TANK_PARAMS, SPHTankCase
 from refsim.case import Param
-
-DATA = Path(__file__).parent.parent / "data" / "martin_moyce_1952_table2_front_n2eq2.csv"
-
-
-def martin_moyce():
-    """(T, Z) of the surge front from the data file."""
-    rows = [line for line in DATA.read_text().splitlines() if line and not line.startswith("#")]
-    assert rows[0].replace(" ", "") == "T,Z", f"unexpected header in {DATA.name}: {rows[0]}"
-    table = np.array([[float(v) for v in line.split(",")] for line in rows[1:]])
-    return table[:, 0], table[:, 1]
-
-
-def clock_spread_rms(fraction):
-    """RMS change of the measured Z(T) if the experiment's clock ran `fraction` fast: how far
-    the experiment itself moves when its runs spread by that fraction in T (issue 5: the runs
-    spread 5-10 % in T early on): 0.35 at 5 %, 0.66 at 10 %."""
-    T, Z = martin_moyce()
-    inside = T * (1 + fraction) <= T[-1]
-    return float(np.sqrt(np.mean((np.interp(T[inside] * (1 + fraction), T, Z) - Z[inside]) ** 2)))
-
 
 class DamBreak(SPHTankCase):
     name = "dam_break"
@@ -100,12 +79,7 @@ class DamBreak(SPHTankCase):
         return 0.15
 
     def figures(self, p):
-        T, Z = martin_moyce()
-        return [{"kind": "trace_over_data", "title": "surge front", "x": "T", "y": "front",
-                 "x_shift_column": "time_shift",
-                 "x_label": "T = t sqrt(2 g / a)  (+ fitted shift)", "y_label": "Z = x / a",
-                 "data": {"x": T.tolist(), "y": Z.tolist(),
-                          "label": "Martin & Moyce (1952), Table 2"}}]
+        return front_figure()
 
     # -- observables -------------------------------------------------------------------------
     def observables(self, p, obs):
@@ -133,17 +107,9 @@ class DamBreak(SPHTankCase):
         return np.abs(dz)
 
     def fit(self, p, T_sim, Z_sim):
-        """Least-squares time shift s (|s| <= 0.3) and the residuals Z_sim(T - s) - Z."""
-        from scipy.optimize import minimize_scalar
-        T, Z = martin_moyce()
-
-        def residuals(s):
-            inside = (T - s >= T_sim[0]) & (T - s <= T_sim[-1])
-            return np.interp(T[inside] - s, T_sim, Z_sim) - Z[inside]
-
-        best = minimize_scalar(lambda s: np.mean(residuals(s) ** 2), bounds=(-0.3, 0.3),
-                               method="bounded", options={"xatol": 1e-6})
-        return float(best.x), residuals(best.x)
+        """Least-squares time shift s (|s| <= 0.3) and the residuals Z_sim(T - s) - Z
+        (refsim_cases._martin_moyce.fit_time_shift)."""
+        return fit_time_shift(T_sim, Z_sim)
 
     def extra_metrics(self, p, obs, observed, reference):
         out = self.fluid_metrics(p, obs)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from refsim_cases.sph.dam_break import DATA, clock_spread_rms, martin_moyce
+from refsim_cases._martin_moyce import DATA, clock_spread_rms, martin_moyce
 from refsim.registry import get_case
 from refsim.testing import accuracy
 

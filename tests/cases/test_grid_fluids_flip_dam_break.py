@@ -10,7 +10,7 @@ from refsim.models.grid_fluid.particle_fluid import ParticleFluid
 from refsim.models.grid_fluid.transfer import parse_transfer
 from refsim.testing import accuracy
 from refsim_cases.grid_fluids.flip_dam_break import CASE, front_of
-from refsim_cases.sph.dam_break import DATA, martin_moyce
+from refsim_cases._martin_moyce import DATA, martin_moyce
 
 DEFAULT = "res8"
 

@@ -15,7 +15,7 @@ from refsim.registry import get_engine
 from refsim_adapters.taichi_engine.runtime import import_taichi
 from refsim.registry import get_case
 from refsim.scene import FluidBlock
-from refsim_cases.sph.dam_break import clock_spread_rms
+from refsim_cases._martin_moyce import clock_spread_rms
 from refsim.testing import accuracy
 
 VV = "velocity_verlet"
