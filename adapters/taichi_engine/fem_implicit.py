@@ -54,7 +54,7 @@ class FemImplicitSim(Sim):
     """A dynamic mesh stepped by implicit_euler or baraff_witkin (module docstring)."""
 
     def __init__(self, scene, dt, integrator):
-        from .groups.fem import FemData
+        from .fem_data import FemData
         from .kernel_types import ti
         from .runtime import runtime
         rt = runtime()
@@ -155,7 +155,7 @@ class FemImplicitSim(Sim):
         return {"x": self.data.world(self.x), "v": self.data.world(self.v, vectors=True)}
 
     def settings(self):
-        from .groups.fem import base_settings
+        from .fem_data import base_settings
         described = self.stepper.describe()
         described.pop("sparse_from_state_size", None)  # refsim's dense/sparse switch
         described["solver"] = "taichi SparseSolver LDLT"

@@ -24,7 +24,6 @@ import numpy as np
 from refsim.models.poisson_solvers import MAX_CYCLES
 
 from .fluid_kernels import grid_t
-from .fluid_solvers import MIN_COARSE, multigrid_reason  # noqa: F401  (taichi-free)
 from .kernel_types import f64, i32, ti
 
 SWEEPS = 2
@@ -158,12 +157,14 @@ class CellMultigrid:
     """The hierarchy of an all-fluid grid and its V-cycle (numpy arrays per level, handed to
     the kernels as external arrays)."""
 
-    def __init__(self, fk, nx, ny, h, periodic):
+    def __init__(self, fk, nx, ny, h, periodic, min_coarse):
+        """min_coarse: the coarsest level's cells per axis at least (fluid_solvers.MIN_COARSE,
+        which also says which grids the hierarchy takes)."""
         from .runtime import runtime
         ti_ = runtime()["ti"]
         self.px, self.py = int(periodic[0]), int(periodic[1])
         shapes, hs = [(nx, ny)], [float(h)]
-        while all(n % 2 == 0 and n // 2 >= MIN_COARSE for n in shapes[-1]):
+        while all(n % 2 == 0 and n // 2 >= min_coarse for n in shapes[-1]):
             shapes.append((shapes[-1][0] // 2, shapes[-1][1] // 2))
             hs.append(2 * hs[-1])
         self.shapes, self.hs = shapes, hs

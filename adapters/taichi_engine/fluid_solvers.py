@@ -116,7 +116,7 @@ class PressureSolver:
             reason = multigrid_reason((nx, ny), marks)
             if reason:
                 raise ValueError(reason)
-            self.mg = CellMultigrid(fk, nx, ny, h, periodic)
+            self.mg = CellMultigrid(fk, nx, ny, h, periodic, MIN_COARSE)
             return
         builder = ti.linalg.SparseMatrixBuilder(reduced, reduced, dtype=ti.f64,
                                                 max_num_triplets=4 * 2 * (nx + 1) * (ny + 1))
