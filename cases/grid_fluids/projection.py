@@ -36,7 +36,7 @@ import math
 import numpy as np
 
 from refsim.case import EPS, Param, SteadyCase
-from refsim.models.grid_fluid.mac import MacGrid, divergence, gradient
+from refsim.models.grid_fluid.mac import MacGrid, divergence, gradient, stack_faces
 from refsim.scene import FluidGrid, Scene
 
 QUANTUM = 2.0 ** -40  # psi's grid: differences and quotients by h = 2^-k exact
@@ -112,9 +112,7 @@ class Projection(SteadyCase):
         return int(p["n"]) ** 2
 
     # -- observables and reference ------------------------------------------------------------
-    @staticmethod
-    def _faces(u, v):
-        return np.concatenate([np.reshape(u, (len(u), -1)), np.reshape(v, (len(v), -1))], 1)
+    _faces = staticmethod(stack_faces)
 
     def observables(self, p, obs):
         return {"velocity": self._faces(obs["grid.u"], obs["grid.v"]),

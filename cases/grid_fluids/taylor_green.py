@@ -57,7 +57,7 @@ import numpy as np
 
 from refsim.case import EPS, Case, Param
 from refsim.integrators.semi_lagrangian import parse_scheme
-from refsim.models.grid_fluid.mac import MacGrid
+from refsim.models.grid_fluid.mac import MacGrid, stack_faces
 from refsim.scene import FluidGrid, Scene
 
 K, U = 1.0, 1.0
@@ -179,9 +179,7 @@ class TaylorGreen(Case):
         return int(p["n"]) ** 2
 
     # -- observables and reference ------------------------------------------------------------
-    @staticmethod
-    def _faces(u, v):
-        return np.concatenate([np.reshape(u, (len(u), -1)), np.reshape(v, (len(v), -1))], 1)
+    _faces = staticmethod(stack_faces)
 
     def observables(self, p, obs):
         return {"velocity": self._faces(obs["grid.u"], obs["grid.v"]),

@@ -213,3 +213,9 @@ def velocity_sampler(u, v, grid: MacGrid):
         return np.stack([bilinear(pu, *index_coordinates(points, "u", grid)),
                          bilinear(pv, *index_coordinates(points, "v", grid))], axis=-1)
     return at
+
+
+def stack_faces(u, v) -> np.ndarray:
+    """Every face value of a batch of fields: u (b, nx + 1, ny) and v (b, nx, ny + 1) as one
+    (b, faces) array, u faces first (C order), as the cases compare them."""
+    return np.concatenate([np.reshape(u, (len(u), -1)), np.reshape(v, (len(v), -1))], 1)
