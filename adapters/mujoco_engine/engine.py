@@ -20,8 +20,13 @@ class MujocoEngine(Engine):
     # scenes with no moving particles that no group claims; particle scenes with a part MuJoCo
     # lacks (lennard_jones, flocking, ...) are the particle groups' and refused by their parts
     refusals = {
-        "grids": grid_refusal_sentence(
-            "mujoco", "it simulates multibody dynamics, with flex meshes for soft bodies"),
+        # keyed on the heat, wave and Poisson grids' features (what the sentence names), not
+        # on the part kind "grids" the level sets share: Engine.refusal takes part kinds
+        # first, so a level set moved by a prescribed flow gets that sentence
+        **dict.fromkeys(("diffusion", "poisson", "wave"), grid_refusal_sentence(
+            "mujoco", "it simulates multibody dynamics, with flex meshes for soft bodies")),
+        "prescribed_flow": "mujoco has no prescribed-flow advection (massless tracers or a "
+                           "level set moved by an analytic velocity field)",
         "fluid": "mujoco does not simulate fluid",  # MuJoCo has no SPH
         # the fem group (MuJoCo 4 flex, StVK) claims a scene of exactly one mesh
         "meshes": "the mujoco adapter's fem group runs one mesh per scene (a MuJoCo 4 flex); "

@@ -30,8 +30,11 @@ class PybulletEngine(Engine):
     refusals = {
         "prescribed_flow": "pybullet has no prescribed-flow advection (massless tracers or a "
                            "level set moved by an analytic velocity field)",
-        "grids": grid_refusal_sentence(
-            "pybullet", "it simulates rigid bodies, multibodies and soft-body meshes"),
+        # keyed on the heat, wave and Poisson grids' features (what the sentence names), not
+        # on the part kind "grids" the level sets share: Engine.refusal takes part kinds
+        # first, so a level set moved by a prescribed flow gets that sentence
+        **dict.fromkeys(("diffusion", "poisson", "wave"), grid_refusal_sentence(
+            "pybullet", "it simulates rigid bodies, multibodies and soft-body meshes")),
         "fluid_grids": ("pybullet has no grid fluid solver (no MAC grid, advection or pressure "
                         "projection; it simulates rigid bodies, multibodies, soft meshes)"),
         **{kind: f"pybullet does not simulate {kind}" for kind in NOT_SIMULATED},

@@ -23,7 +23,11 @@ class PymunkEngine(Engine):
         "prescribed_flow": "pymunk has no prescribed-flow advection (massless tracers or a "
                            "level set moved by an analytic velocity field)",
         **{kind: f"pymunk does not simulate {kind}" for kind in NOT_SIMULATED},
-        "grids": grid_refusal_sentence("pymunk", "it is a 2D rigid-body engine"),
+        # keyed on the heat, wave and Poisson grids' features (what the sentence names), not
+        # on the part kind "grids" the level sets share: Engine.refusal takes part kinds
+        # first, so a level set moved by a prescribed flow gets that sentence
+        **dict.fromkeys(("diffusion", "poisson", "wave"), grid_refusal_sentence(
+            "pymunk", "it is a 2D rigid-body engine")),
         "fluid_grids": ("pymunk has no grid fluid solver (no MAC grid, advection or pressure "
                         "projection; it is a 2D rigid-body engine)"),
         # free rigid bodies; those with shapes on walls are the rolling group, pivoted ones the
