@@ -30,8 +30,8 @@ import numpy as np
 
 from refsim.integrators.semi_lagrangian import BACKTRACES, INTERPOLANTS  # names and orders
 
-from .mac import (LOCATIONS, MacGrid, bilinear, enforce_boundaries, index_coordinates, padded,
-                  velocity_sampler)
+from .mac import (LOCATIONS, MacGrid, bilinear, coordinates, enforce_boundaries, gather,
+                  index_coordinates, padded, padded_velocity, stencil)
 
 BACKTRACE_TEXT = {"euler": "explicit Euler", "rk2": "explicit midpoint (RK2)",
                   "rk3": "Ralston's third-order RK (2/9, 1/3, 4/9)"}
@@ -50,10 +50,11 @@ def check(interpolant: str, backtrace: str) -> None:
                          f"{backtrace!r}")
 
 
-def backtrace(points, velocity, dt, stepper: str) -> np.ndarray:
-    """Departure points of characteristics ending at `points` (..., 2) after dt, through the
-    frozen field `velocity(points) -> (..., 2)`."""
-    k1 = velocity(points)
+def backtrace(points, velocity, dt, stepper: str, k1=None) -> np.ndarray:
+    """Departure points of characteristics ending at `points` after dt, through the frozen
+    field `velocity(points)` of the points' layout ((..., 2), or (2, ...) component first);
+    `k1`: velocity(points) where already known."""
+    k1 = velocity(points) if k1 is None else k1
     if stepper == "euler":
         return points - dt * k1
     if stepper == "rk2":
@@ -66,25 +67,40 @@ def backtrace(points, velocity, dt, stepper: str) -> np.ndarray:
 
 
 def catmull_rom_weights(t) -> tuple:
-    """The four Catmull-Rom weights of entries -1, 0, 1, 2 at fraction t in [0, 1]."""
-    t2, t3 = t * t, t * t * t
-    return (0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2),
-            0.5 * (-3 * t3 + 4 * t2 + t), 0.5 * (t3 - t2))
+    """The four Catmull-Rom weights of entries -1, 0, 1, 2 at fraction t in [0, 1]:
+    0.5 (-t^3 + 2 t^2 - t), 0.5 (3 t^3 - 5 t^2 + 2), 0.5 (-3 t^3 + 4 t^2 + t), 0.5 (t^3 - t^2),
+    each rounded in that order (-a + b is b - a and (-3) t^3 is -(3 t^3), bit for bit)."""
+    t2 = t * t
+    t3 = t2 * t  # t * t * t
+    t3x3 = 3 * t3
+    return (0.5 * (2 * t2 - t3 - t), 0.5 * (t3x3 - 5 * t2 + 2), 0.5 * (4 * t2 - t3x3 + t),
+            0.5 * (t3 - t2))
 
 
 def cubic(pad, qx, qy, clamped=False) -> np.ndarray:
     """The Catmull-Rom tensor-product interpolant of a padded array at (qx, qy); `clamped`
-    limits it to the range of the 2 x 2 nearest entries."""
-    i = np.clip(np.floor(qx).astype(np.intp), 1, pad.shape[0] - 3)
-    j = np.clip(np.floor(qy).astype(np.intp), 1, pad.shape[1] - 3)
-    wx, wy = catmull_rom_weights(qx - i), catmull_rom_weights(qy - j)
-    out = 0.0
+    limits it to the range of the 2 x 2 nearest entries. Sums: sum_a wx_a sum_b wy_b p_ab in
+    the order a, b = 0..3; the final + 0.0 gives a zero's sign as sums started from 0 would."""
+    pad = np.ascontiguousarray(pad)
+    k, tx, ty = stencil(pad.shape, qx, qy, 1, 3)
+    wx, wy = catmull_rom_weights(tx), catmull_rom_weights(ty)
+    flat, s = pad.reshape(-1), pad.shape[1]
+    k -= s + 1  # entry (i - 1, j - 1): entry (i + a - 1, j + b - 1) is k + a s + b
+    out = near = None
     for a, wa in enumerate(wx):
-        row = sum(wb * pad[i + a - 1, j + b - 1] for b, wb in enumerate(wy))
-        out = out + wa * row
-    if clamped:
-        near = np.stack([pad[i, j], pad[i + 1, j], pad[i, j + 1], pad[i + 1, j + 1]])
-        out = np.clip(out, near.min(axis=0), near.max(axis=0))
+        p = [gather(flat, k, a * s + b) for b in range(4)]
+        row = wy[0] * p[0]
+        for b in (1, 2, 3):
+            row += wy[b] * p[b]
+        out = wa * row if out is None else np.add(out, wa * row, out=out)
+        if a in (1, 2):
+            near = p[1:3] if a == 1 else near + p[1:3]
+    np.add(out, 0.0, out=out)
+    if clamped:  # (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1): min / max in that order
+        near = [near[0], near[2], near[1], near[3]]
+        lo = np.minimum(np.minimum(np.minimum(near[0], near[1]), near[2]), near[3])
+        hi = np.maximum(np.maximum(np.maximum(near[0], near[1]), near[2]), near[3])
+        out = np.clip(out, lo, hi)
     return out
 
 
@@ -101,15 +117,33 @@ def interpolate_at(a, location, points, grid: MacGrid, interpolant: str,
                        *index_coordinates(points, location, grid), interpolant)
 
 
+def _axes(location: str, grid: MacGrid):
+    """The 1-D x and y of `location`'s entries (grid.u_points() etc. per axis)."""
+    return [np.arange(n + 1) * grid.h if s else (np.arange(n) + 0.5) * grid.h
+            for n, s in zip(grid.cells, LOCATIONS[location])]
+
+
+def _advect(pad, location, velocity, grid: MacGrid, dt, interpolant, stepper):
+    """The padded array `pad` of `location` at its entries' departure points. Points are
+    component first (2, ...); k1 from the 1-D axes (broadcast: the same values, fewer ops)."""
+    x, y = _axes(location, grid)
+    k1 = np.stack(np.broadcast_arrays(*velocity(x[:, None] / grid.h, y[None, :] / grid.h)))
+    points = np.stack(np.broadcast_arrays(x[:, None], y[None, :]))
+
+    def at(p):
+        return np.stack(velocity(p[0] / grid.h, p[1] / grid.h))
+    departure = backtrace(points, at, dt, stepper, k1)
+    return interpolate(pad, *coordinates(departure[0] / grid.h, departure[1] / grid.h,
+                                         location, grid), interpolant)
+
+
 def advect_faces(u, v, grid: MacGrid, dt, interpolant="linear", stepper="rk2"):
     """(u, v) advected by themselves over dt: every face value taken at its departure point
     (traced through the bilinear velocity of u^n, v^n); wall faces 0, periodic copies kept."""
     check(interpolant, stepper)
-    velocity = velocity_sampler(u, v, grid)
-    out = []
-    for a, location, points in ((u, "u", grid.u_points()), (v, "v", grid.v_points())):
-        departure = backtrace(points, velocity, dt, stepper)
-        out.append(interpolate_at(a, location, departure, grid, interpolant))
+    velocity = padded_velocity(u, v, grid)  # its ghosts are the interpolated arrays' own
+    out = [_advect(pad, loc, velocity, grid, dt, interpolant, stepper)
+           for pad, loc in ((velocity.pu, "u"), (velocity.pv, "v"))]
     enforce_boundaries(out[0], out[1], grid)
     return out[0], out[1]
 
@@ -119,8 +153,8 @@ def advect_cells(q, u, v, grid: MacGrid, dt, interpolant="linear", stepper="rk2"
     """A cell quantity q (nx, ny) advected by the face velocity (u, v) over dt; "even" walls
     (zero normal gradient) unless told."""
     check(interpolant, stepper)
-    departure = backtrace(grid.cell_points(), velocity_sampler(u, v, grid), dt, stepper)
-    return interpolate_at(q, "cell", departure, grid, interpolant, wall)
+    return _advect(padded(q, "cell", grid, wall), "cell", padded_velocity(u, v, grid), grid,
+                   dt, interpolant, stepper)
 
 
 def describe(interpolant: str, stepper: str) -> dict:

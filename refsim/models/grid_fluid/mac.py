@@ -168,29 +168,77 @@ def padded(a, location: str, grid: MacGrid, wall: str = "noslip") -> np.ndarray:
     return out
 
 
+def wrap(q, n: int) -> np.ndarray:
+    """np.mod(q, n) for a positive integer n, bit for bit, in a sixth of its time (numpy's float
+    mod is an fmod and a sign fix, ~50 additions' cost): r = q - n floor(q / n), then r + n where
+    r < 0. Why equal: n floor(q / n) is exact (|floor(q / n)| n < 2^53, checked, else np.mod);
+    with k the true floor, e = q - k n is fmod's value (exact) when q >= 0, and for q < 0 numpy
+    rounds fmod + n, the one rounding of e that q - k n also makes. Where q / n rounds up to an
+    integer (k + 1), q - (k + 1) n is fmod's exact value < 0 and the + n is numpy's own fix-up.
+    -0 gives +0 as numpy's; NaN and inf go to np.mod. The taichi kernel wraps the same way."""
+    q = np.asarray(q, float)
+    if q.size == 0:
+        return np.mod(q, n)
+    k = np.floor(q / n)
+    if not (-2.0 ** 52 < k.min() * n and k.max() * n < 2.0 ** 52):  # also NaN, inf
+        return np.mod(q, n)
+    r = np.subtract(q, np.multiply(k, n, out=k), out=k)
+    if r.min() < 0.0:
+        np.add(r, n, out=r, where=r < 0.0)
+    return r
+
+
+def axis_coordinate(scaled, n: int, periodic: bool, staggered: bool) -> np.ndarray:
+    """A fractional index into a padded axis from x / h: minus 1/2 on a centred axis, wrapped
+    (periodic) or clamped into the domain (walls), plus GHOST. A new array (`scaled` kept)."""
+    q = scaled if staggered else scaled - 0.5  # x / h - 0.0 is x / h, bit for bit
+    if periodic:
+        q = wrap(q, n)
+    else:
+        low = 0.0 if staggered else -0.5
+        q = np.clip(q, low, low + n)
+    return np.add(q, GHOST, out=q)
+
+
+def coordinates(sx, sy, location: str, grid: MacGrid) -> tuple[np.ndarray, np.ndarray]:
+    """Fractional indices into the padded array of `location` of points given as x / h and
+    y / h (broadcastable arrays): `index_coordinates` without its divisions."""
+    staggered = LOCATIONS[location]
+    return (axis_coordinate(sx, grid.nx, grid.periodic[0], staggered[0]),
+            axis_coordinate(sy, grid.ny, grid.periodic[1], staggered[1]))
+
+
 def index_coordinates(points, location: str, grid: MacGrid) -> tuple[np.ndarray, np.ndarray]:
     """Fractional indices into the padded array of `location` of points (..., 2): wrapped on
     periodic axes, clamped into the domain on wall axes."""
-    staggered = LOCATIONS[location]
-    out = []
-    for axis, n in enumerate(grid.cells):
-        q = points[..., axis] / grid.h - (0.0 if staggered[axis] else 0.5)
-        if grid.periodic[axis]:
-            q = np.mod(q, n)
-        else:
-            low = 0.0 if staggered[axis] else -0.5
-            q = np.clip(q, low, low + n)
-        out.append(q + GHOST)
-    return out[0], out[1]
+    return coordinates(points[..., 0] / grid.h, points[..., 1] / grid.h, location, grid)
+
+
+def stencil(shape, qx, qy, low: int, margin: int):
+    """(k, tx, ty): the flat index of entry (i, j) of a C-ordered array of `shape`, i = floor(qx)
+    clamped to [low, shape[0] - margin] (j alike), and the fractions qx - i, qy - j. Clamped as
+    floats before the cast: the same i, j as clipping the cast floors, for every finite q."""
+    fx = np.clip(np.floor(qx), low, shape[0] - margin)
+    fy = np.clip(np.floor(qy), low, shape[1] - margin)
+    tx, ty = qx - fx, qy - fy
+    np.multiply(fx, shape[1], out=fx)
+    return (fx + fy).astype(np.intp), tx, ty  # exact: indices < 2^53
+
+
+def gather(flat, k, offset: int) -> np.ndarray:
+    """flat[k + offset] (a flat take: ~5x cheaper than 2-D fancy indexing); 'clip' only keeps a
+    NaN coordinate's garbage index inside (its value is NaN through its fraction anyway)."""
+    return np.take(flat[offset:], k, mode="clip")
 
 
 def bilinear(pad, qx, qy) -> np.ndarray:
     """The bilinear interpolant of a padded array at fractional indices (qx, qy)."""
-    i = np.clip(np.floor(qx).astype(np.intp), 0, pad.shape[0] - 2)
-    j = np.clip(np.floor(qy).astype(np.intp), 0, pad.shape[1] - 2)
-    tx, ty = qx - i, qy - j
-    return ((1 - tx) * ((1 - ty) * pad[i, j] + ty * pad[i, j + 1])
-            + tx * ((1 - ty) * pad[i + 1, j] + ty * pad[i + 1, j + 1]))
+    pad = np.ascontiguousarray(pad)
+    k, tx, ty = stencil(pad.shape, qx, qy, 0, 2)
+    flat, s = pad.reshape(-1), pad.shape[1]
+    a, b, c, d = (gather(flat, k, o) for o in (0, 1, s, s + 1))
+    sy = 1 - ty
+    return (1 - tx) * (sy * a + ty * b) + tx * (sy * c + ty * d)
 
 
 def sample(a, location: str, points, grid: MacGrid, wall: str = "noslip") -> np.ndarray:
@@ -204,15 +252,24 @@ def velocity_at(u, v, points, grid: MacGrid) -> np.ndarray:
     return np.stack([sample(u, "u", points, grid), sample(v, "v", points, grid)], axis=-1)
 
 
+def padded_velocity(u, v, grid: MacGrid):
+    """(x / h, y / h) -> (u, v) there, bilinear, from the padded faces (pu, pv) built once: the
+    divisions shared by the two components; broadcastable coordinate arrays."""
+    pu, pv = padded(u, "u", grid), padded(v, "v", grid)
+
+    def at(sx, sy):
+        return (bilinear(pu, *coordinates(sx, sy, "u", grid)),
+                bilinear(pv, *coordinates(sx, sy, "v", grid)))
+    at.pu, at.pv = pu, pv
+    return at
+
+
 def velocity_sampler(u, v, grid: MacGrid):
     """points -> velocity_at(u, v, points) with the ghost layers built once (for the several
     evaluations of one backtrace)."""
-    pu, pv = padded(u, "u", grid), padded(v, "v", grid)
-
-    def at(points):
-        return np.stack([bilinear(pu, *index_coordinates(points, "u", grid)),
-                         bilinear(pv, *index_coordinates(points, "v", grid))], axis=-1)
-    return at
+    at = padded_velocity(u, v, grid)
+    return lambda points: np.stack(at(points[..., 0] / grid.h, points[..., 1] / grid.h),
+                                   axis=-1)
 
 
 def stack_faces(u, v) -> np.ndarray:
