@@ -8,7 +8,10 @@ reaching the target error), a compact table, measured against nominal orders whe
 declares an order meaningful, and the figures (refsim.report.plots, small multiples styled by
 refsim.report.style): work-precision (error against run time, Pareto fronts), convergence
 (error against dt, fitted orders where meaningful), energy against time at the reference dt,
-and the figures the case declares (e.g. the dam break's surge front over the experiment).
+and the figures the case declares (e.g. the dam break's surge front over the experiment). A
+declared figure carrying `"shared": id` is drawn once, in the first section declaring that id,
+with the rows of every section declaring it (e.g. the SPH and FLIP dam breaks' fronts side by
+side, a cavity's grids on the same axes): `declared_figures`.
 """
 from __future__ import annotations
 
@@ -80,7 +83,56 @@ _SECTIONS: tuple = ()  # what forked workers render (set just before the pool fo
 def _render_section(k):
     sections, series, target_error, out, style = _SECTIONS
     d, rows = sections[k]
-    return _case_section(d, rows, series, target_error, out, style)
+    return _case_section(d, rows, series, target_error, out, style,
+                         declared_figures(sections, k))
+
+
+def declared_figures(sections, k) -> list:
+    """Section k's declared figures: (spec, rows, file stem) to draw, or ("p", text) for a
+    shared one drawn elsewhere. A figure carrying "shared": id is drawn in the first section
+    declaring that id, once, with the rows of every section declaring it, each row's section
+    in the column `figure_group` ("case/variant", or the spec's "legend_params" as "n=32"),
+    sections ordered by those parameters where they are numbers (coarse to fine grids)."""
+    d, rows = sections[k]
+    out = []
+    for j, spec in enumerate(d.get("figures", [])):
+        sid = spec.get("shared")
+        if not sid:
+            out.append((spec, rows, f"fig{j}"))
+            continue
+        owners = [i for i, (di, _) in enumerate(sections)
+                  if any(f.get("shared") == sid for f in di.get("figures", []))]
+        names = ", ".join(_section_title(sections[i][0]) for i in owners)
+        if owners[0] != k:
+            out.append(("p", f"Figure \"{spec['title']}\" ({names}) is drawn once, in section "
+                             f"{_section_title(sections[owners[0]][0])}."))
+            continue
+        keys = spec.get("legend_params") or []
+        labelled = [(_group_label(sections[i][0], keys), _group_order(sections[i][0], keys), i)
+                    for i in owners]
+        shared = pd.concat([sections[i][1].assign(figure_group=label)
+                            for label, _, i in sorted(labelled, key=lambda g: g[1])])
+        out.append(({**spec, "title": f"{spec['title']} ({names})"}, shared, "shared-"
+                    + "".join(c if c.isalnum() else "_" for c in str(sid))))
+    return out
+
+
+def _section_title(d) -> str:
+    return f"{d['case']} / {d['variant']}"
+
+
+def _group_label(d, keys) -> str:
+    """A shared figure's name for a section's rows: its parameters `keys` ("n=32"), else its
+    case and variant."""
+    if not keys:
+        return f"{d['case']}/{d['variant']}"
+    return " ".join(f"{key}={_fmt(d['params'].get(key), 'g')}" for key in keys)
+
+
+def _group_order(d, keys) -> tuple:
+    """Sections by their parameters `keys` where numbers (coarse to fine), else as run."""
+    values = [d["params"].get(key) for key in keys]
+    return tuple(v if isinstance(v, (int, float)) else math.inf for v in values)
 
 
 def _render_sections(sections, series, target_error, out, style) -> list:
@@ -139,8 +191,9 @@ def _header(manifest, table):
     return blocks
 
 
-def _case_section(d, rows, series, target_error, out, style=None):
-    """One case x variant from its stored definition `d` (Case.definition)."""
+def _case_section(d, rows, series, target_error, out, style=None, declared=None):
+    """One case x variant from its stored definition `d` (Case.definition); `declared`: its
+    declared figures (`declared_figures`), else its own figures with its own rows."""
     from refsim.store.results import row_key
     col, observable, units = d["tolerance_column"], d["observable"], d["units"]
     target = target_error if target_error is not None else d["target_error"]
@@ -165,13 +218,20 @@ def _case_section(d, rows, series, target_error, out, style=None):
                              out / "plots" / f"{slug}-energy.png",
                              f"{title}: energy drift so far at the reference dt", style),
     ]
-    for k, spec in enumerate(d.get("figures", [])):
+    notes = []
+    for item in declared if declared is not None else declared_figures([(d, rows)], 0):
+        if item[0] == "p":
+            notes.append(item)
+            continue
+        spec, drawn, stem = item
         draw = plots.FIGURES.get(spec.get("kind"))
         if draw is not None:
-            figures.append(draw(rows, series, row_key, spec, out / "plots" / f"{slug}-fig{k}.png",
-                                f"{title}: {spec['title']}", style))
+            shared = stem.startswith("shared-")  # named by its id and its sections
+            figures.append(draw(drawn, series, row_key, spec, out / "plots" / (
+                f"{stem}.png" if shared else f"{slug}-{stem}.png"),
+                spec["title"] if shared else f"{title}: {spec['title']}", style))
     from refsim.report.render import webp  # encoded here, in the section's worker
-    blocks += [("img", f, title, webp(f)) for f in figures if f is not None]
+    blocks += [("img", f, title, webp(f)) for f in figures if f is not None] + notes
     orders = order_table(ran) if meaningful else pd.DataFrame()
     if len(orders):
         blocks += [("h3", "Measured against nominal order"), ("table", orders)]

@@ -5,6 +5,11 @@ None when there is nothing to draw (no `ok` row, no stored series). Every figure
 multiples (refsim.report.style.panels: at most MAX_SERIES series per axes), colours by engine
 and markers by integrator from one `Style` shared by the whole report; errors at or below the
 case's error floor (0 included) are drawn on the labelled "exact to round-off" band.
+
+The figures a case declares (Case.figures: FIGURES, by kind) draw its rows' stored series; a
+declared figure shared by several case sections (refsim.report.build) gets the rows of all of
+them, each row's section named in the column `figure_group` (its legend and small multiples
+say whose row it is).
 """
 from __future__ import annotations
 
@@ -119,18 +124,26 @@ def convergence(rows, err_col, units, path: Path, title: str, style=None, floor=
     return rs.save(fig, path, title)
 
 
-def _traced(rows, series: dict, key_of, field: str):
-    """(row, its stored time series) for every row whose series holds `field`."""
+def _traced(rows, series: dict, key_of, *fields: str):
+    """(row, its stored series) for every row whose series holds every one of `fields`."""
     for _, row in rows.iterrows():
         trace = series.get(key_of(row))
-        if trace and field in trace:
+        if trace and all(field in trace for field in fields):
             yield row, trace
 
 
-def _traced_panels(rows, series, key_of, field):
-    """Small multiples of the rows holding a stored `field` series, as for the sweeps."""
-    traced = [(r["engine"], r["engine_variant"], r["integrator"], (r, t))
-              for r, t in _traced(rows, series, key_of, field)]
+def _group(row) -> str:
+    """The section a row of a shared figure comes from ("" in a case's own figure)."""
+    group = row.get("figure_group", "")
+    return group if isinstance(group, str) else ""
+
+
+def _traced_panels(rows, series, key_of, *fields, by_group=True):
+    """Small multiples of the rows holding stored `fields`, as for the sweeps: by engine, and
+    in a shared figure by section first (`by_group`) or all sections on the same axes."""
+    traced = [(" ".join(filter(None, (_group(r) if by_group else "", r["engine"]))),
+               r["engine_variant"], r["integrator"], (r, t))
+              for r, t in _traced(rows, series, key_of, *fields)]
     return rs.panels(traced) if traced else []
 
 
@@ -147,9 +160,9 @@ def energy_history(rows, series: dict, key_of, scale: float, path: Path, title: 
         return None
     fig, axes = rs.grid_figure(len(facets))
     for ax, (name, members) in zip(axes, facets):
-        for engine, form, integrator, (row, trace) in members:
+        for _, form, integrator, (row, trace) in members:
             e = np.asarray(trace["energy"], float)
-            kwargs = {**style.line_kwargs(engine, integrator),
+            kwargs = {**style.line_kwargs(row["engine"], integrator),
                       "markevery": max(1, len(e) // 8)}
             drift = np.maximum.accumulate(np.abs(e[1:] - e[0]) / scale)
             ax.semilogy(trace["t"][1:], np.maximum(drift, 1e-16),
@@ -167,19 +180,19 @@ def trace_over_data(rows, series: dict, key_of, spec: dict, path: Path, title: s
     series spec["y"] against spec["x"] (shifted by the row's spec["x_shift_column"] when
     given), over the measured points spec["data"]; small multiples by engine."""
     style = style or rs.Style.of_table(rows)
-    facets = _traced_panels(rows, series, key_of, spec["y"])
+    facets = _traced_panels(rows, series, key_of, spec["x"], spec["y"])
     if not facets:
         return None
     column, data = spec.get("x_shift_column"), spec["data"]
     fig, axes = rs.grid_figure(len(facets))
     for ax, (name, members) in zip(axes, facets):
-        for engine, form, integrator, (row, trace) in members:
+        for _, form, integrator, (row, trace) in members:
             shift = float(row.get(column, 0.0)) if column else 0.0
             shift = 0.0 if not np.isfinite(shift) else shift
-            label = line_label(row)
+            label = line_label(row)  # its case and variant: the panel's title
             if column:
                 label += f" (shift {shift:+.2f}, RMS {row['err_rms']:.3f})"
-            kwargs = {**style.line_kwargs(engine, integrator), "lw": 1.2,
+            kwargs = {**style.line_kwargs(row["engine"], integrator), "lw": 1.2,
                       "markevery": max(1, len(trace[spec["y"]]) // 8)}
             ax.plot(np.asarray(trace[spec["x"]]) + shift, trace[spec["y"]], label=label,
                     **kwargs)
@@ -187,8 +200,71 @@ def trace_over_data(rows, series: dict, key_of, spec: dict, path: Path, title: s
         ax.set_xlabel(spec["x_label"], fontsize=7)
         ax.set_ylabel(spec["y_label"], fontsize=7)
         rs.finish_axes(ax, name)
+    _same_limits(axes)
     return rs.save(fig, path, title)
 
 
+def _same_limits(axes) -> None:
+    """One x and one y range over the axes, so that side-by-side panels compare by eye."""
+    if len(axes) > 1:
+        x = np.array([ax.get_xlim() for ax in axes])
+        y = np.array([ax.get_ylim() for ax in axes])
+        for ax in axes:
+            ax.set_xlim(x[:, 0].min(), x[:, 1].max())
+            ax.set_ylim(y[:, 0].min(), y[:, 1].max())
+
+
+# light to dark blues: a shared profile figure's sections, coarse to fine
+PROFILE_COLOURS = ("#9ecae1", "#6baed6", "#4292c6", "#2171b5", "#08519c", "#08306b")
+
+
+def profile(rows, series: dict, key_of, spec: dict, path: Path, title: str, style=None):
+    """A case's declared figure (Case.figures, kind "profile"): each row's stored last-sample
+    profile (its series' spec panel["y"]: one value per coordinate of panel["x"]) against
+    those coordinates, over the measured points panel["data"] and the case's own reference
+    lines panel["lines"] (dashed); one axes per panel and engine (per formulation where an
+    engine has many lines). The rows of several sections (a shared figure: grids n = 16, 32,
+    ...) share the axes, coloured light to dark in their order (coarse to fine), marked by
+    integrator, so that convergence shows as lines closing on the data."""
+    style = style or rs.Style.of_table(rows)
+    panels = spec["panels"]
+    facets = _traced_panels(rows, series, key_of, *(panel["y"] for panel in panels),
+                            by_group=False)
+    if not facets:
+        return None
+    groups = list(dict.fromkeys(_group(m[3][0]) for _, members in facets for m in members))
+    fig, axes = rs.grid_figure(len(facets) * len(panels))
+    for k, (name, members) in enumerate(facets):
+        for panel, ax in zip(panels, axes[k * len(panels):]):
+            x = np.asarray(panel["x"], float)
+            for _, form, integrator, (row, trace) in members:
+                y = np.asarray(trace[panel["y"]], float)
+                if y.shape != x.shape:  # stored with other coordinates: not drawn against these
+                    continue
+                colour = _ramp(groups.index(_group(row)), len(groups)) if len(groups) > 1 \
+                    else style.colour(row["engine"])
+                marker, ls = style.marker(integrator)
+                form_tag = f" [{form}]" if form and form not in name else ""
+                ax.plot(x, y, color=colour, marker=marker, ls=ls, ms=3.5, lw=1.1,
+                        markevery=max(1, len(x) // 8),
+                        label=" ".join(filter(None, (_group(row), integrator + form_tag))))
+            for line in panel.get("lines") or []:
+                ax.plot(line["x"], line["y"], color="#d62728", ls="--", lw=1.0,
+                        label=line["label"])
+            data = panel["data"]
+            ax.plot(data["x"], data["y"], "ko", ms=4, mfc="none", label=data["label"])
+            ax.set_xlabel(panel["x_label"], fontsize=7)
+            ax.set_ylabel(panel["y_label"], fontsize=7)
+            rs.finish_axes(ax, f"{name}: {panel['y']}")
+    return rs.save(fig, path, title)
+
+
+def _ramp(k: int, count: int) -> str:
+    """The k-th of `count` colours spread over PROFILE_COLOURS, light to dark."""
+    last = len(PROFILE_COLOURS) - 1
+    return PROFILE_COLOURS[min(last, round(k * last / max(1, count - 1)))]
+
+
 FIGURES = {"trace_over_data": trace_over_data,  # the kinds a case may declare
+           "profile": profile,
            "stability_limits": stability_limits}
