@@ -7,7 +7,8 @@ fluids' flip_dam_break), kept here so that neither case group imports the other.
 `clock_spread_rms(f)` is how far the measured Z(T) moves if the experiment's clock ran a
 fraction f fast (their runs spread 5-10 % in T early on); `fit_time_shift` is the least-squares
 time shift s (|s| <= 0.3: M&M shifted every run to T = 1.19 at Z = 1.44) and the residuals
-Z_sim(T - s) - Z; `front_figure()` the report's figure of a simulated front over the data.
+Z_sim(T - s) - Z; `front_figure()` the report's figure of the simulated fronts over the
+data (one figure for every case declaring it).
 """
 from __future__ import annotations
 
@@ -50,12 +51,16 @@ def fit_time_shift(T_sim, Z_sim):
     return float(best.x), residuals(best.x)
 
 
+SHARED = "martin_moyce_front"  # the report draws every dam-break case's fronts in one figure
+
+
 def front_figure():
     """The report's figure: the case's `front` over T (shifted by its fitted `time_shift`)
-    against the measured points."""
+    against the measured points, shared (`SHARED`) by every case declaring it: the SPH and
+    the FLIP dam breaks side by side."""
     T, Z = martin_moyce()
-    return [{"kind": "trace_over_data", "title": "surge front", "x": "T", "y": "front",
-             "x_shift_column": "time_shift",
+    return [{"kind": "trace_over_data", "title": "surge front", "shared": SHARED,
+             "x": "T", "y": "front", "x_shift_column": "time_shift",
              "x_label": "T = t sqrt(2 g / a)  (+ fitted shift)", "y_label": "Z = x / a",
              "data": {"x": T.tolist(), "y": Z.tolist(),
                       "label": "Martin & Moyce (1952), Table 2"}}]

@@ -63,6 +63,23 @@ def reference_values() -> np.ndarray:
     return np.concatenate([g["u"], g["v"]])
 
 
+# the report's profile heights/abscissae (unit square): every 1/256, so that for even n <= 128
+# each node of the bilinear interpolant along a centreline (faces at (j + 1/2) / n, the walls)
+# is one of them and the drawn polyline is the interpolant itself; 257 numbers a line, inside
+# the store's 400 a profile
+PROFILE = np.linspace(0.0, 1.0, 257)
+PROFILE.flags.writeable = False
+
+
+def profiles(u, v, grid: MacGrid) -> tuple[np.ndarray, np.ndarray]:
+    """(u on x = 0.5 at heights PROFILE, v on y = 0.5 at abscissae PROFILE) of the MAC field,
+    scaled to the unit square as `centreline`."""
+    side = grid.nx * grid.h
+    half, line = np.full_like(PROFILE, 0.5), PROFILE
+    return (sample(u, "u", side * np.stack([half, line], axis=-1), grid),
+            sample(v, "v", side * np.stack([line, half], axis=-1), grid))
+
+
 def centreline(u, v, grid: MacGrid) -> np.ndarray:
     """The MAC field (u (nx + 1, ny), v (nx, ny + 1)) at Ghia's 34 points in the same order as
     `reference_values`, scaled to the unit square (the points are x L, y L with L = nx h)."""

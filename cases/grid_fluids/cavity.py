@@ -64,6 +64,11 @@ n32, with the other projection solvers), 64 and 128 by `--param n=64` / `n=128`.
 No convergence order in dt (`order_meaningful` False): the steady state's error mixes the
 splitting's O(dt) and the interpolation's O(h^(p+1) / dt) with the operators' O(h^2); the
 convergence shown is in h over the grid sequence.
+
+Report figure (`figures`, kind "profile", shared by every cavity section of a run): u on
+x = 0.5 against y and v on y = 0.5 against x at t = T, sampled every 1/256 (`_ghia.PROFILE`;
+observables `u_centreline`, `v_centreline`, stored at the last sample only), every grid run on
+the same axes (legend n = 16, 32, ...), over Ghia's points and c_inf (dashed).
 """
 from __future__ import annotations
 
@@ -74,7 +79,7 @@ from refsim.integrators.semi_lagrangian import parse_scheme
 from refsim.models.grid_fluid.mac import MacGrid
 from refsim.scene import FluidGrid, Scene
 
-from ._ghia import centreline, reference_values
+from ._ghia import PROFILE, centreline, ghia, profiles, reference_values
 
 RE, LID, SIDE = 100.0, 1.0, 1.0  # Ghia's Reynolds number, lid speed (m/s), side (m)
 CFL = 1.0  # dt = CFL h / U: the grid errors below were measured at it
@@ -175,9 +180,34 @@ class Cavity(Case):
 
     # -- observables and reference ------------------------------------------------------------
     def observables(self, p, obs):
+        """centreline: Ghia's 34 points (compared); u_centreline, v_centreline: the whole
+        lines at `PROFILE` (the report's profile figure, kept at the last sample)."""
         grid = self.grid(p)
-        line = np.array([centreline(u, v, grid) for u, v in zip(obs["grid.u"], obs["grid.v"])])
-        return {"centreline": line, "divergence": np.asarray(obs["divergence"], float)}
+        fields = list(zip(obs["grid.u"], obs["grid.v"]))
+        line = np.array([centreline(u, v, grid) for u, v in fields])
+        u_line, v_line = (np.array(a) for a in zip(*(profiles(u, v, grid) for u, v in fields)))
+        return {"centreline": line, "divergence": np.asarray(obs["divergence"], float),
+                "u_centreline": u_line, "v_centreline": v_line}
+
+    def figures(self, p):
+        """The centrelines at t = T over Ghia's points and refsim's converged c_inf (dashed),
+        every grid run on the same axes (shared by the cavity's sections; legend by n)."""
+        g, side = ghia(), SIDE
+        panels = []
+        for name, axis, coord, value, k in (("u_centreline", "y", "u_y", "u", 0),
+                                              ("v_centreline", "x", "v_x", "v", 17)):
+            points = (side * g[coord]).tolist()
+            panels.append({
+                "y": name, "x": (side * PROFILE).tolist(),
+                "x_label": f"{axis} (m) on {'x' if axis == 'y' else 'y'} = {side / 2:g} m",
+                "y_label": f"{value} (m/s)",
+                "data": {"x": points, "y": (LID * g[value]).tolist(),
+                         "label": "Ghia, Ghia & Shin (1982), 129^2"},
+                "lines": [{"x": points, "y": (LID * CONVERGED[k:k + 17]).tolist(),
+                           "label": "refsim c_inf (Richardson, n = 32-128)"}]})
+        return [{"kind": "profile", "shared": "cavity_centrelines", "legend_params": ["n"],
+                 "title": f"centrelines at t = T = {p['t_end']:g} s, Re = {RE:g}",
+                 "panels": panels}]
 
     def reference(self, p, t):
         return {"centreline": np.broadcast_to(reference_values() * LID,
