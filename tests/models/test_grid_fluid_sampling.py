@@ -109,12 +109,15 @@ GRIDS = {"periodic": MacGrid(12, 10, 0.125, (True, True)),
 
 def fields(grid, seed):
     """Random faces with a block of -0.0 (at t = 0 every Catmull-Rom product is -0.0: the
-    zero signs of the sums are exercised), boundary faces as the solver keeps them."""
+    zero signs of the sums are exercised) and one of zeros of random sign (the clamp's min and
+    max of +-0 depend on their order), boundary faces as the solver keeps them."""
     rng = np.random.default_rng(seed)
     u = rng.standard_normal((grid.nx + 1, grid.ny))
     v = rng.standard_normal((grid.nx, grid.ny + 1))
-    u[: grid.nx // 2, : grid.ny // 2] = -0.0
-    v[: grid.nx // 2, : grid.ny // 2] = -0.0
+    for a in (u, v):
+        a[: grid.nx // 2, : grid.ny // 2] = -0.0
+        block = a[grid.nx // 2:, grid.ny // 2:]
+        block[...] = rng.choice([0.0, -0.0], block.shape)
     for arr, axis in ((u, 0), (v, 1)):
         arr = np.moveaxis(arr, axis, 0)
         if grid.periodic[axis]:

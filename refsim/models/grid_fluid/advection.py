@@ -53,17 +53,30 @@ def check(interpolant: str, backtrace: str) -> None:
 def backtrace(points, velocity, dt, stepper: str, k1=None) -> np.ndarray:
     """Departure points of characteristics ending at `points` after dt, through the frozen
     field `velocity(points)` of the points' layout ((..., 2), or (2, ...) component first);
-    `k1`: velocity(points) where already known."""
+    `k1`: velocity(points) where already known. Euler points - dt k1; rk2
+    points - dt k(points - (dt / 2) k1); rk3 k2 = k(points - (dt / 2) k1),
+    k3 = k(points - (3 dt / 4) k2), points - dt ((2/9 k1 + 1/3 k2) + 4/9 k3): each product and
+    sum rounded in that order, in place on this function's own temporaries."""
+    if stepper not in BACKTRACES:
+        raise ValueError(f"advection backtrace must be one of {list(BACKTRACES)}, got "
+                         f"{stepper!r}")
     k1 = velocity(points) if k1 is None else k1
     if stepper == "euler":
-        return points - dt * k1
+        return _minus(points, dt * k1)
+    k2 = velocity(_minus(points, 0.5 * dt * k1))
     if stepper == "rk2":
-        return points - dt * velocity(points - 0.5 * dt * k1)
-    if stepper == "rk3":
-        k2 = velocity(points - 0.5 * dt * k1)
-        k3 = velocity(points - 0.75 * dt * k2)
-        return points - dt * ((2.0 / 9.0) * k1 + (1.0 / 3.0) * k2 + (4.0 / 9.0) * k3)
-    raise ValueError(f"advection backtrace must be one of {list(BACKTRACES)}, got {stepper!r}")
+        return _minus(points, dt * k2)
+    k3 = velocity(_minus(points, 0.75 * dt * k2))
+    mean = (2.0 / 9.0) * k1
+    mean += (1.0 / 3.0) * k2
+    mean += (4.0 / 9.0) * k3
+    mean *= dt
+    return _minus(points, mean)
+
+
+def _minus(points, step):
+    """points - step, into `step` (a temporary of the caller's)."""
+    return np.subtract(points, step, out=step)
 
 
 def catmull_rom_weights(t) -> tuple:
@@ -73,48 +86,71 @@ def catmull_rom_weights(t) -> tuple:
     t2 = t * t
     t3 = t2 * t  # t * t * t
     t3x3 = 3 * t3
-    return (0.5 * (2 * t2 - t3 - t), 0.5 * (t3x3 - 5 * t2 + 2), 0.5 * (4 * t2 - t3x3 + t),
-            0.5 * (t3 - t2))
+    w0 = 2 * t2
+    w0 -= t3
+    w0 -= t
+    w0 *= 0.5
+    w1 = -5 * t2
+    w1 += t3x3
+    w1 += 2
+    w1 *= 0.5
+    w2 = 4 * t2
+    w2 -= t3x3
+    w2 += t
+    w2 *= 0.5
+    t3 -= t2
+    t3 *= 0.5
+    return w0, w1, w2, t3
 
 
-def cubic(pad, qx, qy, clamped=False) -> np.ndarray:
-    """The Catmull-Rom tensor-product interpolant of a padded array at (qx, qy); `clamped`
-    limits it to the range of the 2 x 2 nearest entries. Sums: sum_a wx_a sum_b wy_b p_ab in
-    the order a, b = 0..3; the final + 0.0 gives a zero's sign as sums started from 0 would."""
+def cubic(pad, qx, qy, clamped=False, own: bool = False) -> np.ndarray:
+    """The Catmull-Rom tensor-product interpolant of a padded array at (qx, qy) (overwritten
+    where `own`); `clamped` limits it to the range of the 2 x 2 nearest entries. Sums:
+    sum_a wx_a sum_b wy_b p_ab in the order a, b = 0..3; the final + 0.0 gives a zero's sign as
+    sums started from 0 would; min and max over (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)
+    in that order (a zero's sign)."""
     pad = np.ascontiguousarray(pad)
-    k, tx, ty = stencil(pad.shape, qx, qy, 1, 3)
+    k, tx, ty = stencil(pad.shape, qx, qy, 1, 3, own)
     wx, wy = catmull_rom_weights(tx), catmull_rom_weights(ty)
     flat, s = pad.reshape(-1), pad.shape[1]
     k -= s + 1  # entry (i - 1, j - 1): entry (i + a - 1, j + b - 1) is k + a s + b
+    p = [np.empty(k.shape) for _ in range(4)]
     out = near = None
     for a, wa in enumerate(wx):
-        p = [gather(flat, k, a * s + b) for b in range(4)]
-        row = wy[0] * p[0]
+        for b in range(4):
+            gather(flat, k, a * s + b, out=p[b])
+        if clamped and a == 1:
+            near = p[1].copy(), p[2].copy()
+        elif clamped and a == 2:
+            bounds = [f(f(f(near[0], p[1]), near[1]), p[2]) for f in (np.minimum, np.maximum)]
+        row = p[0]
+        row *= wy[0]
         for b in (1, 2, 3):
-            row += wy[b] * p[b]
-        out = wa * row if out is None else np.add(out, wa * row, out=out)
-        if a in (1, 2):
-            near = p[1:3] if a == 1 else near + p[1:3]
-    np.add(out, 0.0, out=out)
-    if clamped:  # (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1): min / max in that order
-        near = [near[0], near[2], near[1], near[3]]
-        lo = np.minimum(np.minimum(np.minimum(near[0], near[1]), near[2]), near[3])
-        hi = np.maximum(np.maximum(np.maximum(near[0], near[1]), near[2]), near[3])
-        out = np.clip(out, lo, hi)
+            p[b] *= wy[b]
+            row += p[b]
+        row *= wa
+        if out is None:
+            out, p[0] = row, np.empty(k.shape)
+        else:
+            out += row
+    out += 0.0
+    if clamped:
+        np.clip(out, *bounds, out=out)
     return out
 
 
-def interpolate(pad, qx, qy, interpolant: str) -> np.ndarray:
+def interpolate(pad, qx, qy, interpolant: str, own: bool = False) -> np.ndarray:
+    """`interpolant` of the padded array at (qx, qy) (overwritten where `own`)."""
     if interpolant == "linear":
-        return bilinear(pad, qx, qy)
-    return cubic(pad, qx, qy, clamped=interpolant == "cubic_clamped")
+        return bilinear(pad, qx, qy, own)
+    return cubic(pad, qx, qy, interpolant == "cubic_clamped", own)
 
 
 def interpolate_at(a, location, points, grid: MacGrid, interpolant: str,
                    wall: str = "noslip") -> np.ndarray:
     """`a` (of `location`: "u", "v" or "cell") at points (..., 2) by `interpolant`."""
     return interpolate(padded(a, location, grid, wall),
-                       *index_coordinates(points, location, grid), interpolant)
+                       *index_coordinates(points, location, grid), interpolant, own=True)
 
 
 def _axes(location: str, grid: MacGrid):
@@ -134,7 +170,7 @@ def _advect(pad, location, velocity, grid: MacGrid, dt, interpolant, stepper):
         return np.stack(velocity(p[0] / grid.h, p[1] / grid.h))
     departure = backtrace(points, at, dt, stepper, k1)
     return interpolate(pad, *coordinates(departure[0] / grid.h, departure[1] / grid.h,
-                                         location, grid), interpolant)
+                                         location, grid), interpolant, own=True)
 
 
 def advect_faces(u, v, grid: MacGrid, dt, interpolant="linear", stepper="rk2"):
