@@ -215,7 +215,13 @@ class Case:
         {"kind": "trace_over_data", "title": str, "x": series key, "y": series key,
          "x_shift_column": results column added to x (or None), "x_label": str,
          "y_label": str, "data": {"x": [...], "y": [...], "label": str}}
-        draws each row's stored series y(x) over measured points."""
+        draws each row's stored series y(x) over measured points; and
+        {"kind": "profile", "title": str, "panels": [{"y": observable (one vector per
+         sample, stored at the last sample, at most 400 numbers), "x": coordinates, "x_label",
+         "y_label", "data": {"x", "y", "label"}, "lines": [{"x", "y", "label"}] (optional,
+         dashed)}]} draws each row's last profile over measured points. Any kind may add
+        "shared": id (one figure for every case declaring that id, e.g. two models of one
+        experiment side by side) and "legend_params": [parameter names]."""
         return []
 
     def definition(self, variant: str, p: dict) -> dict:
@@ -237,6 +243,12 @@ class Case:
     def extra_metrics(self, p, obs: dict, observed: dict, reference: dict) -> dict:
         """Case-specific columns (e.g. momentum_drift, penetration_max) from a whole run."""
         return {}
+
+    def consistency_checks(self, p, row: dict, settings) -> list[str]:
+        """Further conditions of "consistent with its method" beyond the tolerance column's
+        bound (e.g. a query case's other measures within theirs), as the reasons that fail:
+        each makes a consistent row inconsistent. None by default."""
+        return []
 
     def error(self, p, observed: dict, reference: dict) -> np.ndarray:
         """Error of the compared observable at each sample (Euclidean norm over components)."""

@@ -91,7 +91,10 @@ def get_integrator(spec: str) -> Integrator:
 
 
 STATIC_SOLVE = {"steady": {"name": "steady", "order": 0.0, "symplectic": False,
-                           "implicit": True, "adaptive": False}}
+                           "implicit": True, "adaptive": False},
+                # a query case's one answer of its batch (refsim.query): no time stepping
+                "query": {"name": "query", "order": 0.0, "symplectic": False,
+                          "implicit": False, "adaptive": False}}
 
 
 def method_info(spec: str) -> dict | None:
@@ -99,7 +102,8 @@ def method_info(spec: str) -> dict | None:
     implicit, adaptive}, or None for a name refsim does not define (an engine's own scheme,
     e.g. MuJoCo's implicitfast). Covers the second-order steppers (`get_integrator`), the
     sparse first-order theta methods of the grid models (crank_nicolson), the static solve
-    ("steady", order 0: one complete solve to the solver's tolerance) and the grid-fluid
+    ("steady", order 0: one complete solve to the solver's tolerance; "query", a query case's
+    one answer of its batch) and the grid-fluid
     schemes ("sl_linear:rk2", refsim.integrators.semi_lagrangian) and particle-grid transfers
     ("apic_quadratic_bspline", refsim.models.grid_fluid.transfer.transfer_info)."""
     from refsim.models.grid_fluid.transfer import transfer_info

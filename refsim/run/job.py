@@ -56,7 +56,7 @@ def _blank_row(job: Job, run_id: str) -> dict:
                 "constraint_drift", "target_error",
                 "momentum_drift", "penetration_max", "conservation_err",
                 "setup_s", "compile_s", "step_s", "step_s_median", "us_per_step", "call_us",
-                "tolerance", "diverged_t", "wall_s", "engine_s"):
+                "tolerance", "diverged_t", "wall_s", "engine_s", "throughput"):
         row[col] = float("nan")
     row.update(repeats=0, timed_steps=0, settings="{}", reaches_target=False, consistency="",
                consistency_reason="", tol_reason="", samples=0, timing="", warnings="")
@@ -129,7 +129,7 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
                nominal_order=_nominal_order(job), declared_order=_declared_order(sim))
     obs, stopped, stepping_s = _accuracy_pass(case, p, sim, steps, stride, clock)
     clock.call(sim.close)
-    stacked = {k: np.array([o[k] for o in obs]) for k in obs[0]}
+    stacked = stack_observations(obs)
     if stopped:
         status, why, t_stop = stopped
         row.update(status=status, reason=why, diverged_t=t_stop, samples=len(obs))
@@ -146,6 +146,23 @@ def _run_job(job, row, repeats, budget_s, keep_trajectory, clock):
         timing = clock.call(timing_pass, engine, scene, job, steps, timed, repeats, budget_s)
         row.update(whole_run_check(timing, steps, stepping_s, len(obs) - 1,
                                    lambda: clock.call(whole_run_s, engine, scene, job, steps)))
+        row["throughput"] = case.bodies(p) * steps / row["step_s"] if row["step_s"] > 0 \
+            else float("nan")
+
+
+def stack_observations(obs: list) -> dict:
+    """{name: array over the samples}; a name whose shape changes between samples (a query
+    answer: empty before the first step) as an object array of the per-sample arrays."""
+    out = {}
+    for k in obs[0]:
+        values = [np.asarray(o[k]) for o in obs]
+        if all(v.shape == values[0].shape for v in values):
+            out[k] = np.array(values)
+        else:
+            out[k] = np.empty(len(values), dtype=object)
+            for i, v in enumerate(values):  # one per sample, not per body
+                out[k][i] = v
+    return out
 
 
 def _verdicts(case, p, job, row, stacked) -> dict:
@@ -167,9 +184,12 @@ def _verdicts(case, p, job, row, stacked) -> dict:
     initial = row["err_initial"] if case.initial_state_is_reference else float("nan")
     out.update(judge(row[column], bound, why, case.motion_scale(p), initial,
                      case.error_floor(p)))
-    # its own word, or its energy's behaviour, whatever the bound: not the method it names
+    # its own word, or its energy's behaviour, whatever the bound: not the method it names;
+    # and any further condition the case states (a query case's other measures)
+    checks = case.consistency_checks(p, {**row, **out}, settings) \
+        if out["consistency"] != UNRESOLVED else []
     for why in (declared_reason(row["declared_order"], method["order"]),
-                _energy_behaviour(case, p, method, settings, row, stacked)):
+                _energy_behaviour(case, p, method, settings, row, stacked), *checks):
         if why is not None:
             earlier = "" if out["consistency"] == UNRESOLVED else out["consistency_reason"]
             out.update(consistency=INCONSISTENT,
@@ -252,19 +272,47 @@ SERIES_POINTS = 400  # samples kept per stored time series (for the report's plo
 
 
 def series(case, p, stacked) -> dict:
-    """Energy and the 1-D observables against time, at most SERIES_POINTS samples: what the
-    report plots at the reference dt (the results table keeps only the norms)."""
+    """Energy and the 1-D observables against time, at most SERIES_POINTS samples, and the
+    profiles the case's figures declare (`profile_names`) at the last sample: what the report
+    plots at the reference dt (the results table keeps only the norms)."""
     t = np.asarray(stacked["t"], float)
     keep = np.unique(np.linspace(0, len(t) - 1, min(len(t), SERIES_POINTS)).astype(int))
     out = {"t": t[keep].tolist()}
     energy = case.energy(p, stacked)
     if energy is not None:
         out["energy"] = np.asarray(energy, float)[keep].tolist()
+    profiles = profile_names(case.figures(p))
     for name, values in case.observables(p, stacked).items():
-        values = np.asarray(values, float)
-        if values.shape == t.shape:
-            out[name] = values[keep].tolist()
+        values = np.asarray(values)
+        if name in profiles:
+            out[name] = last_profile(name, values, len(t))
+        elif values.shape == t.shape and values.dtype.kind in "biuf":  # numbers, one a sample
+            out[name] = values.astype(float)[keep].tolist()
+    missing = sorted(set(profiles) - set(out))
+    if missing:
+        raise ValueError(f"{case.name} figures declare the profile {missing[0]!r}, which is not "
+                         "one of its observables")
     return out
+
+
+PROFILE_POINTS = 400  # numbers kept per stored profile, at most
+
+
+def profile_names(figures) -> list[str]:
+    """The observables a case's figures (Case.figures) draw as profiles: each panel's "y" of
+    a figure of kind "profile", kept at the last sample by `series`."""
+    return [panel["y"] for figure in figures if figure.get("kind") == "profile"
+            for panel in figure["panels"]]
+
+
+def last_profile(name: str, values: np.ndarray, samples: int) -> list[float]:
+    """The profile observable `name` (one vector of at most PROFILE_POINTS numbers a sample)
+    at the last sample; ValueError naming what is wrong otherwise."""
+    if values.ndim != 2 or len(values) != samples or values.shape[1] > PROFILE_POINTS \
+            or values.dtype.kind not in "biuf":
+        raise ValueError(f"profile {name!r} must be one vector of at most {PROFILE_POINTS} "
+                         f"numbers per sample ({samples} samples), got shape {values.shape}")
+    return values[-1].astype(float).tolist()
 
 
 def _energy_at(case, p, o):

@@ -9,7 +9,7 @@ import pytest
 
 from refsim.case import Case
 from refsim.registry import case_names, get_case, get_engine
-from refsim.run.job import Job, run_job
+from refsim.run.job import PROFILE_POINTS, Job, run_job
 
 ENGINE = get_engine("refsim")
 # on an undamped oscillator these are unstable at every step size (|R(iy)| > 1 for all y > 0):
@@ -57,7 +57,14 @@ BOUND_GAPS = {
         "err 1.8e-3 above the bound 2.7e-4: the chart's turning error is amplified ~300x near "
         "the separatrix, which the bound does not model",
 }
-FIGURE_KEYS = {"kind", "title", "x", "y", "x_shift_column", "x_label", "y_label", "data"}
+# the keys of each kind of declared figure (Case.figures; refsim.report.plots.FIGURES), and
+# those any kind may add: "shared" (one figure for every section declaring the id) and
+# "legend_params" (the parameters naming a section in a shared figure)
+FIGURE_KEYS = {"trace_over_data": {"kind", "title", "x", "y", "x_shift_column", "x_label",
+                                   "y_label", "data"},
+               "profile": {"kind", "title", "panels"}}
+OPTIONAL_FIGURE_KEYS = {"shared", "legend_params"}
+PANEL_KEYS = {"y", "x", "x_label", "y_label", "data"}  # a profile's panel; "lines" optional
 
 
 # variants too large to solve in the contract's runs (a direct 3D solve at 65^3 takes
@@ -140,8 +147,14 @@ def test_case_variant_sets_and_definition_are_storable(name):
         assert definition["observable"] and definition["units"]
         assert definition["order_meaningful"] is case.order_meaningful
         for figure in definition["figures"]:
-            assert set(figure) == FIGURE_KEYS and figure["kind"] == "trace_over_data"
-            assert len(figure["data"]["x"]) == len(figure["data"]["y"]) > 0
+            keys = FIGURE_KEYS[figure["kind"]]
+            assert keys <= set(figure) <= keys | OPTIONAL_FIGURE_KEYS
+            points = [figure["data"]] if "data" in figure else []
+            for panel in figure.get("panels", []):
+                assert PANEL_KEYS <= set(panel) <= PANEL_KEYS | {"lines"}
+                assert 0 < len(panel["x"]) <= PROFILE_POINTS  # what the store keeps
+                points += [panel["data"], *panel.get("lines", [])]
+            assert all(len(data["x"]) == len(data["y"]) > 0 for data in points)
 
 
 @pytest.mark.parametrize("name", sorted(BUILTIN))
@@ -166,9 +179,11 @@ def test_variant_takes_one_finite_step_of_reference_dt(name, variant, formulatio
     assert after["t"] == pytest.approx(case.reference_dt(p))
     # what moves: the bodies' positions or a grid's fields (a grid scene has no x; in a
     # particle fluid at rest, the still tank, the particles stay put to round-off and the
-    # step's pressure is what changes)
-    state = [k for k in after if k == "x" or k.startswith("grid.")]
-    assert state and all(np.all(np.isfinite(after[k])) for k in state)
+    # step's pressure is what changes; a query scene's answers, empty before the step)
+    state = [k for k in after if k == "x" or k.startswith(("grid.", "query."))]
+    # a query's answers may be NaN by design ("never touch"): answered, not finite
+    assert state and all(np.all(np.isfinite(after[k])) if not k.startswith("query.") else
+                         np.size(after[k]) > 0 for k in state)
     assert any(not np.array_equal(after[k], before[k]) for k in state)
 
 
