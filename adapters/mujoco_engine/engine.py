@@ -20,6 +20,14 @@ class MujocoEngine(Engine):
     # scenes with no moving particles that no group claims; particle scenes with a part MuJoCo
     # lacks (lennard_jones, flocking, ...) are the particle groups' and refused by their parts
     refusals = {
+        # collision queries (issue 28) MuJoCo has no call for
+        "polygon_pairs": "mujoco is a 3D engine: no 2D polygon geoms",
+        "sdf_probes": "mujoco exposes no query of a grid signed distance field's value or "
+                      "gradient (its SDF geoms are collision plugins)",
+        "bvh_queries": "mujoco exposes no BVH query (its broad phase runs inside mj_collision "
+                       "on the model's geoms only)",
+        "sphere_sweeps": "mujoco has no public time-of-impact call (conservative advancement "
+                         "acts inside mj_step with the speculative flag)",
         # keyed on the heat, wave and Poisson grids' features (what the sentence names), not
         # on the part kind "grids" the level sets share: Engine.refusal takes part kinds
         # first, so a level set moved by a prescribed flow gets that sentence

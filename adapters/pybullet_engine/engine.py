@@ -28,6 +28,14 @@ class PybulletEngine(Engine):
     dims = (3,)
     integrators = ("symplectic_euler",)
     refusals = {
+        # collision queries (issue 28) pybullet has no call for
+        "polygon_pairs": "pybullet is a 3D engine: no 2D polygon shapes (an extruded prism "
+                         "would answer a different question at its caps)",
+        "sdf_probes": "pybullet exposes no query of a grid signed distance field",
+        "bvh_queries": "pybullet exposes only an AABB broad-phase query "
+                       "(getOverlappingObjects), not a sphere overlap or nearest query",
+        "sphere_sweeps": "pybullet has no public time-of-impact call (ccdSweptSphereRadius "
+                         "acts inside stepSimulation)",
         "prescribed_flow": "pybullet has no prescribed-flow advection (massless tracers or a "
                            "level set moved by an analytic velocity field)",
         # keyed on the heat, wave and Poisson grids' features (what the sentence names), not

@@ -20,6 +20,9 @@ class PymunkEngine(Engine):
     dims = (2, 3)
     integrators = ("symplectic_euler_dk",)
     refusals = {
+        # collision queries (issue 28) of 3D shapes: pymunk is 2D
+        **dict.fromkeys(("box_pairs", "sdf_probes", "bvh_queries", "sphere_sweeps"),
+                        "pymunk is a 2D engine: the query is on 3D shapes"),
         "prescribed_flow": "pymunk has no prescribed-flow advection (massless tracers or a "
                            "level set moved by an analytic velocity field)",
         **{kind: f"pymunk does not simulate {kind}" for kind in NOT_SIMULATED},
