@@ -8,7 +8,8 @@ parts store read-only numpy arrays, built once.
 Modules: particles (Body, Particles), springs (Spring, Springs), joints (Joint, Joints), walls
 (Wall, Walls, ContactModel), fluid (FluidBlock, SPH), rigid (RigidBodies), networks
 (SpringNetwork), meshes (Material, Plasticity, TriangleMesh, TetMesh), grids (Grid), fluid_grid
-(FluidGrid: a fluid on a MAC grid), scene (Scene, PART_KINDS, MOVING_KINDS); _validate holds
+(FluidGrid: a fluid on a MAC grid), plates (Plates: thin static slabs), queries (the collision
+query batches), scene (Scene, PART_KINDS, MOVING_KINDS); _validate holds
 the shared checks.
 """
 from ._validate import Vec
@@ -20,6 +21,7 @@ from .meshes import (PLANE_MODES, STRAIN_MEASURES, Material, Plasticity, TetMesh
                      single_mesh)
 from .networks import SpringNetwork
 from .particles import Body, Particles
+from .plates import Plates
 from .rigid import RigidBodies
 from .scene import MOVING_KINDS, PART_KINDS, Scene
 from .springs import Spring, Springs
@@ -27,6 +29,6 @@ from .walls import ContactModel, Wall, Walls
 
 __all__ = ["BOUNDARY_KINDS", "Body", "ContactModel", "FluidBlock", "FluidGrid", "Grid",
            "JOINT_KINDS", "Joint", "Joints", "MOVING_KINDS", "Material", "PART_KINDS",
-           "PLANE_MODES", "Particles", "Plasticity", "RigidBodies", "STRAIN_MEASURES", "Scene",
+           "PLANE_MODES", "Particles", "Plates", "Plasticity", "RigidBodies", "STRAIN_MEASURES", "Scene",
            "Spring", "SpringNetwork", "Springs", "TetMesh", "TriangleMesh", "Vec", "Wall",
            "Walls", "single_mesh"]

@@ -42,7 +42,7 @@ PART_KINDS = ("particles", "springs", "joints", "walls", "fluid", "rigid", "netw
               "meshes", "grids", "fluid_grids")
 MOVING_KINDS = ("particles", "fluid", "rigid", "networks", "meshes")
 # parts that only act on bodies held by other parts: a scene of these alone has nothing to move
-_ATTACHED_KINDS = ("springs", "joints", "walls")
+_ATTACHED_KINDS = ("springs", "joints", "walls", "plates")
 
 
 def _rank(part) -> int:
