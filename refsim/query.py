@@ -108,7 +108,9 @@ class QueryCase(SteadyCase):
 
     def definition(self, variant, p) -> dict:
         return {**super().definition(variant, p), "query": True,
-                "measures": {k: list(v) for k, v in self.measures.items()}}
+                "measures": {k: list(v) for k, v in self.measures.items()},
+                # the report's results table shows every measure, the batch and its rate
+                "report_columns": [*self.measures, "queries", "throughput"]}
 
 
 class QuerySim(Sim):
