@@ -5,6 +5,7 @@ zeros included (compared as int64 bit patterns). The taichi kernels mirror the p
 import numpy as np
 import pytest
 
+from refsim.models.grid_fluid import advection
 from refsim.models.grid_fluid.advection import (BACKTRACES, INTERPOLANTS, advect_cells,
                                                 advect_faces)
 from refsim.models.grid_fluid.mac import GHOST, LOCATIONS, MacGrid, padded, wrap
@@ -127,10 +128,14 @@ def fields(grid, seed):
     return u, v
 
 
+@pytest.mark.parametrize("block", [None, 25])  # 25 points: blocks of 2 rows, the last short
 @pytest.mark.parametrize("sides", list(GRIDS))
 @pytest.mark.parametrize("interpolant", list(INTERPOLANTS))
 @pytest.mark.parametrize("stepper", list(BACKTRACES))
-def test_advection_equals_the_plain_formulation_bit_for_bit(sides, interpolant, stepper):
+def test_advection_equals_the_plain_formulation_bit_for_bit(sides, interpolant, stepper, block,
+                                                           monkeypatch):
+    if block is not None:
+        monkeypatch.setattr(advection, "BLOCK", block)
     grid = GRIDS[sides]
     u, v = fields(grid, 1)
     dt = 2.5 * grid.h / max(np.abs(u).max(), np.abs(v).max())  # CFL 2.5: across seams, walls
