@@ -1,0 +1,290 @@
+"""Tunnelling: small fast spheres against a thin plate, discrete against continuous detection
+(issue 28, case 5; slide 001's "discrete vs continuous"). A time-stepping case.
+
+Geometry. One static plate (Plates part): mid-plane through the origin, normal n = +x,
+thickness w, square of half side H in the y-z plane. n spheres of radius r, the i-th at
+y_i = (i - (n - 1) / 2) s (s = 4 r: never touching each other; H leaves every sphere more than
+s + 2 r inside the rim), all at x0 = -(w/2 + r + delta): a step ends (t = 0) with each sphere's
+front a hair delta = hair (w + 2 r) before the entry face, the worst phase. Sphere i moves at
+v_i = ratio_i (w + 2 r) / dt along +x, dt = `step` the case's one step; no gravity, contact
+model (restitution e, friction 0). Ratios (`sweep` = 0): 0.25, 0.499, 0.5005, 0.502, 0.75,
+0.999, 1.0005, 1.002, 1.5, 2, 3, 100 (bracketing both thresholds below to 0.15 %); `sweep` = m:
+m ratios log-spaced over [0.25, 3], plus 100.
+
+Reference: the exact trajectory, the sphere meets the entry face at t_c = delta / v and leaves
+it at -e v: x = x0 + v t, then -(w/2 + r) - e v (t - t_c).
+
+Theory of the detection (exact, worst phase). End-of-step positions are x0 + k v dt; the first
+after t = 0 that passes the entry extent is step k* = floor(delta / (v dt)) + 1, at
+d* = x0 + k* v dt along n. It overlaps the slab iff d* < w/2 + r; since the slab's extent along
+n is w + 2 r, it is missed entirely iff v dt >= w + 2 r + delta. Where an overlap found at the
+end of a step pushes the sphere (the engine's settings "plate_side"):
+- "approach": back to the side its centre came from (refsim's discrete detection: the side of
+  the start-of-step centre). Tunnels iff ratio > 1 + hair (v dt > w + 2 r + delta);
+- "nearest" (the default where an engine declares none): out of the face of least
+  penetration, so a centre past the mid-plane is pushed through. Tunnels iff ratio >
+  1/2 + hair (v dt > w/2 + r + delta).
+A bounced sphere sits on the entry face at t = k* dt and leaves at -e v: e v (k* dt - t_c)
+behind the exact one. Continuous detection (settings "detection": "continuous": the time of
+impact on the slab faces swept by the centre path) never tunnels and is exact.
+
+Observable `position` (m): every sphere's centre; error per sample = max over spheres of
+|x_i - x_exact_i| (the tolerance column err_max). Extra columns: `tunnelled` (spheres whose
+centre ends beyond the mid-plane), `threshold_ratio` (the lowest tunnelling ratio, NaN where
+none tunnelled), `bounce_ratio` (the highest non-tunnelling ratio), `late_bounce_err` (m: over
+the spheres ending on the near side, max |(x - x_exact).n - e v (k* dt - t_c)| at the end: a
+discrete bounce's offset from the theory, per sphere).
+
+Verdict (consistency). Bound: the theory's own error (the discrete theory trajectory against
+the exact one, max over the steps, per the declared detection and plate side; 0 for
+continuous), plus round-off 4 N eps S (N steps, S = max |x0| + v T: three roundings of the
+position a step and the contact-time arithmetic); a soft (spring-damper) contact adds its
+stated restitution residual de v (T - t_c) and (1 + e) v (T_c + dt) for the contact's
+duration and a step of detection. `consistency_checks`: the tunnelled spheres are exactly the
+theory's (the count equals the theory's and the lowest tunnelling ratio is above the theory's
+threshold: then the set is the theory's), and for discrete impulse contacts the per-sphere
+`late_bounce_err` within the round-off bound. Planted defects: see tests/cases/
+test_tunnelling.py (continuous with its time of impact a step late, a plate 10 % thicker).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from refsim.case import EPS, Case, Param
+from refsim.engine import ContactInfo
+from refsim.scene import Body, ContactModel, Particles, Plates, Scene
+
+RATIOS = (0.25, 0.499, 0.5005, 0.502, 0.75, 0.999, 1.0005, 1.002, 1.5, 2.0, 3.0, 100.0)
+PLATE_SIDES = ("approach", "nearest")
+
+
+class Tunnelling(Case):
+    name = "tunnelling"
+    description = ("small fast spheres against a thin plate: discrete detection tunnels above "
+                   "v dt = w + 2r (or w/2 + r), continuous never")
+    tags = ("contacts", "collision", "exact")
+    observable, units = "position", "m"
+    params = {
+        "radius": Param(0.05, 0.0, 1.0, "r (m)", low_inclusive=False),
+        "thickness": Param(0.02, 0.0, 1.0, "plate thickness w (m)", low_inclusive=False),
+        "step": Param(0.01, 0.0, 1.0, "the case's time step dt (s)", low_inclusive=False),
+        "hair": Param(1e-3, 0.0, 0.1, "delta / (w + 2r): the gap before the entry face at "
+                                      "t = 0", low_inclusive=False),
+        "restitution": Param(1.0, 0.0, 1.0, "e"),
+        "steps": Param(10, 2, 1e4, "steps run (T = steps dt)"),
+        "sweep": Param(0, 0, 1e5, "0: the listed ratios; m: m ratios log-spaced in [0.25, 3] "
+                                  "plus 100"),
+    }
+    variants = {"threshold": {}, "threshold_e0.5": {"restitution": 0.5},
+                "sweep": {"sweep": 1000}}
+    quick_variants = default_variants = ("threshold",)
+    alternatives_variants = ("threshold",)
+    order_meaningful = False  # the outcome is decided per step, no convergence in dt
+
+    def validate(self, overrides=None):
+        p = super().validate(overrides)
+        p["steps"], p["sweep"] = int(p["steps"]), int(p["sweep"])
+        return p
+
+    # -- geometry ----------------------------------------------------------------------------
+    def ratios(self, p) -> np.ndarray:
+        if p["sweep"] == 0:
+            return np.array(RATIOS)
+        return np.append(np.geomspace(0.25, 3.0, p["sweep"]), 100.0)
+
+    def extent(self, p) -> float:
+        """w + 2 r: the slab's extent along n for a sphere's centre."""
+        return p["thickness"] + 2 * p["radius"]
+
+    def delta(self, p) -> float:
+        return p["hair"] * self.extent(p)
+
+    def speeds(self, p) -> np.ndarray:
+        return self.ratios(p) * self.extent(p) / p["step"]
+
+    def start(self, p) -> np.ndarray:
+        """(n, 3) initial centres."""
+        n, r = len(self.ratios(p)), p["radius"]
+        x = np.zeros((n, 3))
+        x[:, 0] = -(p["thickness"] / 2 + r + self.delta(p))
+        x[:, 1] = (np.arange(n) - (n - 1) / 2) * 4 * r
+        return x
+
+    def half_size(self, p) -> float:
+        r = p["radius"]
+        return float(np.max(np.abs(self.start(p)[:, 1]))) + 6 * r
+
+    def scene(self, p):
+        x, v = self.start(p), self.speeds(p)
+        r, m = p["radius"], 1.0
+        inertia = 0.4 * m * r * r
+        bodies = tuple(Body(mass=m, position=x[i], velocity=(v[i], 0.0, 0.0), radius=r,
+                            inertia=inertia, name=f"sphere{i}") for i in range(len(v)))
+        plate = Plates(center=np.zeros((1, 3)), normal=[[1.0, 0.0, 0.0]],
+                       thickness=[p["thickness"]], half_size=[self.half_size(p)])
+        return Scene(parts=(Particles.of(bodies), plate),
+                     contact=ContactModel(restitution=p["restitution"], friction=0.0))
+
+    def bodies(self, p):
+        return len(self.ratios(p))
+
+    # -- time --------------------------------------------------------------------------------
+    def t_end(self, p):
+        return p["steps"] * p["step"]
+
+    def dts(self, p):
+        return [p["step"]]
+
+    def reference_dt(self, p):
+        return p["step"]
+
+    def motion_scale(self, p):
+        return self.extent(p)
+
+    # -- reference and theory ----------------------------------------------------------------
+    def contact_time(self, p) -> np.ndarray:
+        return self.delta(p) / self.speeds(p)
+
+    def reference(self, p, t):
+        t = np.asarray(t, float)[:, None]
+        x = np.broadcast_to(self.start(p), (len(t),) + self.start(p).shape).copy()
+        v, tc, e = self.speeds(p), self.contact_time(p), p["restitution"]
+        face = -(p["thickness"] / 2 + p["radius"])
+        x[:, :, 0] = np.where(t <= tc, x[:, :, 0] + v * t, face - e * v * (t - tc))
+        vel = np.zeros_like(x)
+        vel[:, :, 0] = np.where(t <= tc, v, -e * v)
+        return {"position": x, "velocity": vel}
+
+    def first_overlap(self, p):
+        """(k*, d*): the first step whose end passes the entry extent, and the centre's
+        coordinate along n there."""
+        v, dt = self.speeds(p), p["step"]
+        k = np.floor(self.delta(p) / (v * dt)) + 1
+        return k, self.start(p)[:, 0] + k * v * dt
+
+    def theory_tunnels(self, p, detection="discrete", side="nearest") -> np.ndarray:
+        """Which spheres end beyond the plate under the detection and plate side."""
+        if detection == "continuous":
+            return np.zeros(len(self.ratios(p)), bool)
+        _, d = self.first_overlap(p)
+        missed = d >= p["thickness"] / 2 + p["radius"]
+        return missed | (d >= 0.0) if side == "nearest" else missed
+
+    def theory_threshold(self, p, detection="discrete", side="nearest") -> float:
+        """The ratio above which spheres tunnel (inf: never)."""
+        if detection == "continuous":
+            return np.inf
+        return (0.5 if side == "nearest" else 1.0) + p["hair"]
+
+    def theory_trajectory(self, p, t, detection="discrete", side="nearest") -> np.ndarray:
+        """Centres' coordinate along n (t, n) under the detection theory."""
+        t = np.asarray(t, float)[:, None]
+        if detection == "continuous":
+            return self.reference(p, t[:, 0])["position"][:, :, 0]
+        v, e, dt = self.speeds(p), p["restitution"], p["step"]
+        half = p["thickness"] / 2 + p["radius"]
+        k, d = self.first_overlap(p)
+        tk = k * dt
+        free = self.start(p)[:, 0] + v * t
+        bounce = np.where(t < tk, free, -half - e * v * (t - tk))
+        through = np.where(t < tk, free, half + v * (t - tk))
+        missed = d >= half
+        pushed = ~missed & (d >= 0.0) & (side == "nearest")
+        return np.where(missed, free, np.where(pushed, through, bounce))
+
+    # -- observables, error, metrics ---------------------------------------------------------
+    def observables(self, p, obs):
+        return {"position": np.asarray(obs["x"]), "velocity": np.asarray(obs["v"]),
+                "t": np.asarray(obs["t"])}
+
+    def error(self, p, observed, reference):
+        diff = np.asarray(observed["position"]) - np.asarray(reference["position"])
+        return np.max(np.linalg.norm(diff, axis=2), axis=1)
+
+    def extra_metrics(self, p, obs, observed, reference):
+        ratios = self.ratios(p)
+        x_end = np.asarray(observed["position"])[-1]
+        beyond = x_end[:, 0] > 0.0
+        out = {"tunnelled": float(np.sum(beyond)),
+               "threshold_ratio": float(np.min(ratios[beyond])) if beyond.any() else np.nan,
+               "bounce_ratio": float(np.max(ratios[~beyond])) if (~beyond).any() else np.nan}
+        k, _ = self.first_overlap(p)
+        late = p["restitution"] * self.speeds(p) * (k * p["step"] - self.contact_time(p))
+        offset = x_end[:, 0] - np.asarray(reference["position"])[-1, :, 0]
+        out["late_bounce_err"] = float(np.max(np.abs(offset - late)[~beyond])) \
+            if (~beyond).any() else np.nan
+        return out
+
+    def energy(self, p, obs):
+        return 0.5 * np.einsum("tjk,tjk->t", obs["v"], obs["v"])  # unit masses
+
+    def energy_scale(self, p):
+        return 0.5 * float(np.sum(self.speeds(p) ** 2))
+
+    def reference_energy(self, p, t):
+        t = np.asarray(t, float)[:, None]
+        v, tc, e = self.speeds(p), self.contact_time(p), p["restitution"]
+        return 0.5 * np.sum(np.where(t <= tc, v, e * v) ** 2, axis=1)
+
+    # -- verdicts ----------------------------------------------------------------------------
+    @staticmethod
+    def detection_of(settings) -> tuple[str, str]:
+        """(detection, plate side) an engine declares."""
+        s = settings if isinstance(settings, dict) else {}
+        side = str(s.get("plate_side", "nearest"))
+        return ContactInfo.of(settings).detection, side
+
+    def roundoff(self, p) -> float:
+        scale = float(np.max(np.abs(self.start(p))) + np.max(self.speeds(p)) * self.t_end(p))
+        return 4 * p["steps"] * EPS * scale
+
+    def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
+        detection, side = self.detection_of(settings)
+        contact = ContactInfo.of(settings)
+        t = np.arange(p["steps"] + 1) * p["step"]
+        theory = self.theory_trajectory(p, t, detection, side)
+        exact = self.reference(p, t)["position"][:, :, 0]
+        own = float(np.max(np.abs(theory - exact)))
+        bound = own + self.roundoff(p)
+        if detection == "continuous":
+            reason = ("continuous detection (time of impact on the slab faces): the exact "
+                      "trajectory")
+        else:
+            reason = (f"discrete detection, plate side {side!r}: the theory's own error "
+                      f"{own:.6g} m (spheres missing the slab, or pushed through, fly on; "
+                      f"the others bounce at the end of the step k* that overlaps, e v (k* dt "
+                      f"- t_c) behind the exact ones)")
+        reason += f"; plus round-off 4 N eps S = {self.roundoff(p):.3g}"
+        if contact.soft:
+            v, e = self.speeds(p), p["restitution"]
+            soft = float(np.max(contact.restitution_residual * v * (self.t_end(p) -
+                                                                     self.contact_time(p))
+                                + (1 + e) * v * (contact.duration_s + dt)))
+            bound += soft
+            reason += (f"; plus the soft contact's stated restitution residual de v (T - t_c) "
+                       f"and (1 + e) v (T_c + dt) for its duration and a step: {soft:.3g}")
+        return bound, reason
+
+    def consistency_checks(self, p, row, settings):
+        detection, side = self.detection_of(settings)
+        reasons = []
+        if detection != "continuous" and side not in PLATE_SIDES:
+            return [f"plate_side must be one of {list(PLATE_SIDES)}, got {side!r}"]
+        expected = int(np.sum(self.theory_tunnels(p, detection, side)))
+        threshold = self.theory_threshold(p, detection, side)
+        got, lowest = row.get("tunnelled", np.nan), row.get("threshold_ratio", np.nan)
+        if not got == expected or (expected and not lowest > threshold):
+            reasons.append(
+                f"tunnelled {got:g} (lowest ratio {lowest:g}) where the theory ({detection}, "
+                f"plate side {side!r}) tunnels {expected} spheres, every ratio above "
+                f"{threshold:g}")
+        if detection == "discrete" and not ContactInfo.of(settings).soft:
+            late = row.get("late_bounce_err", np.nan)
+            if late > self.roundoff(p):
+                reasons.append(f"late_bounce_err {late:.3g} m: a bounced sphere is not on the "
+                               f"entry face at the end of its overlapping step (round-off "
+                               f"{self.roundoff(p):.3g})")
+        return reasons
+
+
+CASE = Tunnelling()
