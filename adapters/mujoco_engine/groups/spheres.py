@@ -6,13 +6,17 @@ The group claims the scenes of moving particles with a contact model or walls (w
 contact model are refused with the reason), without grids and other than the exact gravity-pairs
 scene. Formulations (contact scenes): "" (a spring-dashpot per contact, impedance d = 1e-4) and
 "coupled" (MuJoCo's constraint regime, d = 0.9999). `discrete` is refused with contacts
-(backward Euler on the contact spring dissipates)."""
+(backward Euler on the contact spring dissipates).
+
+Scenes with thin static plates (the Plates part, adapters/mujoco_engine/plates.py): each plate a
+box geom; formulations "" (discrete detection, d = 1e-4) and "speculative" (MuJoCo's
+speculative contacts: continuous detection); plates without a contact model are refused."""
 from __future__ import annotations
 
 import numpy as np
 
 from refsim.engine import ModelGroup
-from refsim.scene import Joints, Particles, Springs, Walls
+from refsim.scene import Joints, Particles, Plates, Springs, Walls
 
 from .particles import particle_scene
 
@@ -24,7 +28,8 @@ DISCRETE_CONTACT_REASON = (
 
 def claims(scene) -> bool:
     return particle_scene(scene) and (scene.contact is not None or
-                                      scene.part(Walls) is not None)
+                                      scene.part(Walls) is not None or
+                                      scene.part(Plates) is not None)
 
 
 def refusal(scene) -> str | None:
@@ -34,6 +39,9 @@ def refusal(scene) -> str | None:
 
     from ..contact_params import MAX_FRICTION_SPHERES
     if scene.contact is None:
+        if scene.part(Plates) is not None:
+            return (f"{WHO}: plates without a contact model (nothing says how spheres "
+                    f"bounce off them)")
         return walls_without_contact(scene, WHO)
     if scene.part(Springs) is not None or scene.part(Joints) is not None:
         return ("mujoco adapter: springs and rods are not combined with contacts (every "
@@ -66,9 +74,13 @@ def supports(engine, scene, integrator):
 
 def formulations(engine, scene):
     """Contact scenes: "" (spring-dashpot per contact, d = 1e-4) and "coupled" (MuJoCo's
-    constraint regime, d = 0.9999); walls without a contact model (refused): ""."""
+    constraint regime, d = 0.9999); with plates "" and "speculative" (continuous detection);
+    walls without a contact model (refused): ""."""
     from ..contact_params import IMPEDANCE
-    return tuple(IMPEDANCE) if scene.contact is not None else ("",)
+    from ..plates import FORMULATIONS
+    if scene.contact is None:
+        return ("",)
+    return FORMULATIONS if scene.part(Plates) is not None else tuple(IMPEDANCE)
 
 
 def build(engine, scene, dt, integrator, formulation):
@@ -80,14 +92,22 @@ def build(engine, scene, dt, integrator, formulation):
     bodies, walls = scene.part(Particles).to_records(), scene.part(Walls)
     points, normals = ((np.zeros((0, 3)), np.zeros((0, 3))) if walls is None
                        else (walls.point, walls.normal))
+    plates = scene.part(Plates)
+
+    def contact():
+        if plates is None:
+            return ContactSetup.make(scene.contact, len(bodies), points, normals, dt,
+                                     integrator, formulation)
+        from ..plates import PlateContactSetup
+        base = ContactSetup.make(scene.contact, len(bodies), points, normals, dt, integrator, "")
+        return PlateContactSetup.with_plates(base, plates, formulation)
     return MujocoSim(scene, [sphere_plan(i, b) for i, b in enumerate(bodies)], dt, integrator,
-                     contact=lambda: ContactSetup.make(scene.contact, len(bodies), points,
-                                                       normals, dt, integrator, formulation))
+                     contact=contact)
 
 
 # springs, joints and drag are taken only to be refused with the reason (a free sphere's joint)
 MODEL_GROUP = ModelGroup(
     name="spheres", build=build, claims=claims,
-    parts=frozenset({"particles", "springs", "joints", "walls"}),
-    features=frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"}),
+    parts=frozenset({"particles", "springs", "joints", "walls", "plates"}),
+    features=frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls", "plates"}),
     supports=supports, formulations=formulations)
