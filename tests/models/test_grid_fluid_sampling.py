@@ -1,7 +1,9 @@
 """The fast sampling path (mac.wrap, flat gathers, shared coordinates, component-first
 backtraces) against the plain formulation it replaced (np.mod, 2-D fancy indexing, points
 (..., 2), Python sums from 0): the same operations in the same order, so bit for bit, signed
-zeros included (compared as int64 bit patterns). The taichi kernels mirror the plain form."""
+zeros included (compared as int64 bit patterns): elementwise + - * /, floor, fmod, clip, min,
+max and take only, each correctly rounded or exact and never fused, so on every machine
+(tests/BIT_FOR_BIT.md's rule). The taichi kernels mirror the plain form."""
 import numpy as np
 import pytest
 

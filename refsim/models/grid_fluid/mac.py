@@ -171,11 +171,12 @@ def padded(a, location: str, grid: MacGrid, wall: str = "noslip") -> np.ndarray:
 def wrap(q, n: int) -> np.ndarray:
     """np.mod(q, n) for a positive integer n, bit for bit, in a sixth of its time (numpy's float
     mod is an fmod and a sign fix, ~50 additions' cost): r = q - n floor(q / n), then r + n where
-    r < 0. Why equal: n floor(q / n) is exact (|floor(q / n)| n < 2^53, checked, else np.mod);
-    with k the true floor, e = q - k n is fmod's value (exact) when q >= 0, and for q < 0 numpy
-    rounds fmod + n, the one rounding of e that q - k n also makes. Where q / n rounds up to an
-    integer (k + 1), q - (k + 1) n is fmod's exact value < 0 and the + n is numpy's own fix-up.
-    -0 gives +0 as numpy's; NaN and inf go to np.mod. The taichi kernel wraps the same way."""
+    r < 0. Why equal: n floor(q / n) is exact (|n floor(q / n)| < 2^52, checked, else np.mod).
+    With k the true floor, e = q - k n is fmod's exact value when q >= 0; for q < 0 numpy rounds
+    fmod + n, i.e. e, once, as q - k n does. The rounded q / n never crosses an integer m != 0
+    (the spacing of doubles at m n, over n, exceeds half the spacing at m); it reaches -0 from
+    a subnormal q < 0: then r = q < 0 and the + n is numpy's own (fmod = q, + n). -0 gives +0
+    as numpy's; NaN and inf go to np.mod. The taichi kernel wraps the same way."""
     q = np.asarray(q, float)
     if q.size == 0:
         return np.mod(q, n)
@@ -270,22 +271,23 @@ def velocity_at(u, v, points, grid: MacGrid) -> np.ndarray:
     return np.stack([sample(u, "u", points, grid), sample(v, "v", points, grid)], axis=-1)
 
 
-def padded_velocity(u, v, grid: MacGrid):
-    """(x / h, y / h) -> (u, v) there, bilinear, from the padded faces (pu, pv) built once: the
-    divisions shared by the two components; broadcastable coordinate arrays."""
-    pu, pv = padded(u, "u", grid), padded(v, "v", grid)
+class PaddedVelocity:
+    """(x / h, y / h) -> (u, v) there, bilinear, from the padded faces pu, pv built once (no-slip
+    ghosts, the lid): the divisions shared by the two components; broadcastable arrays."""
 
-    def at(sx, sy):
-        return (bilinear(pu, *coordinates(sx, sy, "u", grid), own=True),
-                bilinear(pv, *coordinates(sx, sy, "v", grid), own=True))
-    at.pu, at.pv = pu, pv
-    return at
+    def __init__(self, u, v, grid: MacGrid):
+        self.grid = grid
+        self.pu, self.pv = padded(u, "u", grid), padded(v, "v", grid)
+
+    def __call__(self, sx, sy) -> tuple[np.ndarray, np.ndarray]:
+        return (bilinear(self.pu, *coordinates(sx, sy, "u", self.grid), own=True),
+                bilinear(self.pv, *coordinates(sx, sy, "v", self.grid), own=True))
 
 
 def velocity_sampler(u, v, grid: MacGrid):
     """points -> velocity_at(u, v, points) with the ghost layers built once (for the several
     evaluations of one backtrace)."""
-    at = padded_velocity(u, v, grid)
+    at = PaddedVelocity(u, v, grid)
     return lambda points: np.stack(at(points[..., 0] / grid.h, points[..., 1] / grid.h),
                                    axis=-1)
 
