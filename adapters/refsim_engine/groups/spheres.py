@@ -1,15 +1,15 @@
-"""The in-house engine's spheres group: spheres (and walls) under a contact model, stepped by
-a gravity kick and one of three contact formulations (`contacts.ContactSim`: discrete,
-continuous, the slide's hard-sphere update as printed). Springs, rods and drag are not combined
-with contacts: those scenes are claimed here and refused with the reason."""
+"""The in-house engine's spheres group: spheres (and walls, thin plates) under a contact model,
+stepped by a gravity kick and one of three contact formulations (`contacts.ContactSim`:
+discrete, continuous, the slide's hard-sphere update as printed). Springs, rods and drag are
+not combined with contacts: those scenes are claimed here and refused with the reason."""
 from __future__ import annotations
 
 from refsim.engine import ModelGroup
-from refsim.scene import Joints, Particles, Springs, Walls
+from refsim.scene import Joints, Particles, Plates, Springs, Walls
 
 from ...common.checks import non_sphere_bodies
 
-KINDS = frozenset({"particles", "springs", "joints", "walls"})
+KINDS = frozenset({"particles", "springs", "joints", "walls", "plates"})
 
 
 def claims(scene) -> bool:
@@ -19,6 +19,10 @@ def claims(scene) -> bool:
 
 def _formulations(engine, scene):
     from ..contacts import CONTACT_FORMULATIONS
+    if scene.part(Plates) is not None:
+        # the slide's hard-sphere update acts on sphere pairs only: against plates it is the
+        # discrete formulation again, a duplicate row that would pass as the seed formula
+        return tuple(f for f in CONTACT_FORMULATIONS if f != "hard_sphere_seed")
     return CONTACT_FORMULATIONS
 
 
@@ -32,14 +36,16 @@ def _supports(engine, scene, integrator):
 
 
 def _build(engine, scene, dt, integrator, formulation):
-    from ..contacts import ContactSim
+    from ..contacts import NO_WALLS, ContactSim
     walls = scene.part(Walls)
     planes = () if walls is None else (walls.point, walls.normal)
+    planes = planes or (NO_WALLS, NO_WALLS)
     return ContactSim(dt, formulation, scene.part(Particles), scene.gravity, scene.contact,
-                      *planes)
+                      *planes, plates=scene.part(Plates))
 
 
 MODEL_GROUP = ModelGroup(
     name="spheres", claims=claims, parts=KINDS,
-    features=frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls"}),
+    features=frozenset({"gravity", "springs", "joints", "drag", "contacts", "walls",
+                        "plates"}),
     supports=_supports, formulations=_formulations, build=_build)
