@@ -89,6 +89,11 @@ def plate_settings(plates, formulation: str) -> dict:
     ccd = formulation == "ccd"
     return {
         "detection": "continuous" if ccd else "discrete",
+        "plate_side": "nearest",
+        "plate_side_note": ("an overlap found at a step's end pushes the sphere out of the face "
+                            "of least penetration (through, once its centre is past the "
+                            "mid-plane); the overlap is kept (contact ERP 0): the bounce "
+                            "starts from the overlapped position"),
         "ccd": CCD_NOTE if ccd else DISCRETE_NOTE,
         "ccd_parameters": ({"ccdSweptSphereRadius": "each sphere's radius", **CCD_PARAMS,
                             "allowedCcdPenetration_default": 0.04} if ccd else {}),

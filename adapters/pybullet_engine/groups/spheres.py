@@ -88,7 +88,7 @@ class PybulletSphereSim(PybulletSim):
     def __init__(self, p, scene, dt, formulation=""):
         particles, springs, walls = (scene.part(c) for c in (Particles, Springs, Walls))
         self.contact, self.walls_built = scene.contact, "none"
-        self.plates, self.formulation = scene.part(Plates), formulation
+        self.plates, self.formulation, self.plate_ids = scene.part(Plates), formulation, []
         if formulation == "ccd":
             self.model_stages = ("contacts:continuous_detection", "contacts:impulses")
         self.walls = () if walls is None else walls.to_records()
@@ -101,7 +101,7 @@ class PybulletSphereSim(PybulletSim):
         handles = build_spheres(self.p, self.client, bodies, self.contact)
         self.walls_built = build_walls(self.p, self.client, self.walls, bodies, self.contact)
         if self.plates is not None:
-            build_plates(self.p, self.client, self.plates, self.contact)
+            self.plate_ids = build_plates(self.p, self.client, self.plates, self.contact)
         if self.formulation == "ccd":
             enable_ccd(self.p, self.client, handles, self.particles.radius)
         return handles
