@@ -59,6 +59,11 @@ class PlatesSim(PymunkSim):
         out = super().settings()
         out["ccd"] = DETECTION_NOTE
         out["detection"] = "discrete"
+        out["plate_side"] = "nearest"
+        out["plate_side_note"] = ("an overlap found at a step's end pushes the circle out of "
+                                  "the face of least penetration (through, once its centre is "
+                                  "past the mid-plane); position correction off: the bounce "
+                                  "starts from the overlapped position")
         out["plates"] = (f"{len(self.plates)} static Poly rectangles (radius 0): each plate's "
                          "cross-section in pymunk's plane, thickness w along the normal, "
                          "length 2 half_size; the circles' sqrt(e), sqrt(mu)")
