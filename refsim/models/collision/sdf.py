@@ -20,7 +20,8 @@ linear interpolations (x, then y, then z); its gradient is the exact derivative 
 polynomial: d phi_h / dz = (c1 - c0) / h of the two xy-bilinear values, d / dy the z-linear
 blend of the y differences, d / dx the yz-bilinear blend of the four x-edge differences
 (piecewise bilinear in the other two coordinates, discontinuous across cell faces). A probe
-on a cell face (or the grid's upper boundary) takes the cell below it, clipped to the grid.
+on an inner cell face takes the cell above it (floor), one on the grid's upper boundary the
+last cell (t = 1).
 """
 from __future__ import annotations
 
@@ -93,8 +94,8 @@ def sample(shape: str, size, lower, h: float, nodes, dtype=np.float64) -> np.nda
 
 
 def cells(lower, h: float, nodes, points) -> tuple[np.ndarray, np.ndarray]:
-    """(index (m, 3) int of each probe's cell's lower node, t (m, 3) in [0, 1]): the cell
-    below a face, clipped to the grid."""
+    """(index (m, 3) int of each probe's cell's lower node, t (m, 3) in [0, 1]): floor,
+    clipped to the grid's last cell."""
     u = (np.asarray(points, float) - np.asarray(lower, float)) / h
     index = np.clip(np.floor(u).astype(np.int64), 0, np.asarray(nodes) - 2)
     return index, u - index
