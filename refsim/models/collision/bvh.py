@@ -191,6 +191,8 @@ def build(center, radius, leaf_size: int = 8, split: str = "morton") -> Bvh:
                 values[inner] = (np.minimum(first, second) if key.endswith(("lo", "min"))
                                  else np.maximum(first, second))
             lv[key] = values
+        # one row per node for the queries' gathers: box_lo, box_hi, c_lo, c_hi, r_min, r_max
+        lv["packed"] = np.column_stack([lv[key] for key in BOX_KEYS])
     return Bvh(order=order, center=c, radius=r, levels=tuple(levels),
                leaf_size=int(leaf_size), split=split, pad=pad)
 
@@ -235,9 +237,10 @@ def overlap_pairs(tree: Bvh, query_center, query_radius) -> np.ndarray:
     qr = np.asarray(query_radius, dtype=float)
 
     def near(d, query, node):
-        lv = tree.levels[d]
-        return _box_distance(qc[query], lv["box_lo"][node], lv["box_hi"][node]) \
-            <= qr[query] + tree.pad
+        row, point = tree.levels[d]["packed"][node], qc[query]
+        gap = np.maximum(np.maximum(row[:, 0:3] - point, point - row[:, 3:6]), 0.0)
+        reach = qr[query] + tree.pad
+        return np.einsum("kj,kj->k", gap, gap) <= reach * reach
 
     query, pos = _frontier(tree, np.arange(len(qc)), near)
     diff = qc[query] - tree.center[pos]
@@ -249,13 +252,13 @@ def overlap_pairs(tree: Bvh, query_center, query_radius) -> np.ndarray:
 
 def _node_bounds(tree: Bvh, d: int, point, node):
     """Lower and upper bounds of min |c_q - c_p| - r_p over each node's primitives."""
-    lv = tree.levels[d]
-    lo, hi = lv["c_lo"][node], lv["c_hi"][node]
-    to_centres = _box_distance(point, lo, hi) - lv["r_max"][node]
-    to_box = _box_distance(point, lv["box_lo"][node], lv["box_hi"][node])
+    row = tree.levels[d]["packed"][node]
+    lo, hi = row[:, 6:9], row[:, 9:12]
+    to_centres = _box_distance(point, lo, hi) - row[:, 13]
+    to_box = _box_distance(point, row[:, 0:3], row[:, 3:6])
     lower = np.where(to_box > 0, np.maximum(to_box, to_centres), to_centres)
     far = np.maximum(np.abs(point - lo), np.abs(point - hi))
-    upper = np.sqrt(np.einsum("kj,kj->k", far, far)) - lv["r_min"][node]
+    upper = np.sqrt(np.einsum("kj,kj->k", far, far)) - row[:, 12]
     return lower, upper
 
 
