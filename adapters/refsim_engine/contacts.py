@@ -49,6 +49,7 @@ class ContactSim(Sim):
         self.e, self.mu = contact.restitution, contact.friction
         self.wall_p, self.wall_n = wall_point, wall_normal  # read-only
         self.plates = plates if plates is not None and len(plates) else None
+        self.plate_axes = None if self.plates is None else slab.plate_axes(self.plates.normal)
         self.wall_impulse = np.zeros(3)
         self._step = {"discrete": self._discrete, "continuous": self._continuous,
                       "hard_sphere_seed": self._seed}[formulation]
@@ -72,7 +73,8 @@ class ContactSim(Sim):
         if self.plates is not None:
             p = self.plates
             ps, _, pn, pdepth = slab.plate_contacts(self.x, self.r, p.center, p.normal,
-                                                    p.thickness, p.half_size, x_before)
+                                                    p.thickness, p.half_size, x_before,
+                                                    self.plate_axes)
             static = tuple(np.concatenate([a, b]) for a, b in zip(static, (ps, pn, pdepth)))
         return pairs, static
 
@@ -113,7 +115,8 @@ class ContactSim(Sim):
             return found
         p = self.plates
         ps, _, pn, ptau = slab.plate_time_of_impact(self.x, self.v, self.r, p.center, p.normal,
-                                                    p.thickness, p.half_size, h)
+                                                    p.thickness, p.half_size, h,
+                                                    self.plate_axes)
         return tuple(np.concatenate([a, b]) for a, b in zip(found, (ps, pn, ptau)))
 
     def _continuous(self, h):

@@ -36,9 +36,10 @@ def test_discrete_tunnels_exactly_at_the_theorys_threshold():
     assert row["consistency"] == "consistent", row["consistency_reason"]
     assert (row["tunnelled"], row["threshold_ratio"], row["bounce_ratio"]) == (5, 1.002, 1.0005)
     # a bounced sphere sits on the entry face after its overlapping step: e v (dt - t_c)
-    # behind the exact one; the offset per sphere to round-off (a few ulps of |x| <= 1.2 m)
-    assert row["late_bounce_err"] <= 1e-14
-    assert row["err_max"] <= row["tolerance"] < 0.1 + 1e-12  # e (dt - t_c) / T, T = 10 dt
+    # behind the exact one; the offset per sphere to round-off: x and the exact x of the
+    # bounced spheres (|x| <= 12 m), each a few roundings, 16 eps of 12 m in all
+    assert row["late_bounce_err"] <= 16 * np.finfo(float).eps * 12
+    assert row["err_max"] <= row["tolerance"] < 0.01 + 1e-12  # e (dt - t_c) / T, T = 100 dt
 
 
 def test_the_measured_threshold_on_a_fine_sweep_brackets_the_theory():
@@ -46,7 +47,8 @@ def test_the_measured_threshold_on_a_fine_sweep_brackets_the_theory():
     row = _row("discrete", params=(("sweep", 200),))
     assert row["consistency"] == "consistent", row["consistency_reason"]
     assert row["bounce_ratio"] < 1.001 < row["threshold_ratio"]
-    assert row["threshold_ratio"] / row["bounce_ratio"] < 1.0 + 0.0126  # one spacing
+    # adjacent ratios: one spacing 12^(1/199) apart (to the rounding of geomspace)
+    assert row["threshold_ratio"] / row["bounce_ratio"] <= 12 ** (1 / 199) * (1 + 1e-12)
 
 
 def test_continuous_never_tunnels_and_is_exact():
@@ -54,14 +56,14 @@ def test_continuous_never_tunnels_and_is_exact():
     assert row["consistency"] == "consistent", row["consistency_reason"]
     assert row["tunnelled"] == 0 and np.isnan(row["threshold_ratio"])
     assert row["bounce_ratio"] == 100.0
-    # the bound: 4 N eps (|x0| + v T) / (v T) of the slowest sphere (0.3 m travel)
-    assert row["err_max"] <= row["tolerance"] < 5e-14
+    # the bound: 4 N eps (|x0| + v T) / (v T) of the slowest sphere (3 m travel)
+    assert row["err_max"] <= row["tolerance"] < 5e-13
 
 
 def test_e_half_moves_nothing_but_the_bounce():
     row = _row("discrete", "threshold_e0.5")
     assert row["consistency"] == "consistent", row["consistency_reason"]
-    assert row["tunnelled"] == 5 and row["err_max"] <= row["tolerance"] < 0.05 + 1e-12
+    assert row["tunnelled"] == 5 and row["err_max"] <= row["tolerance"] < 0.005 + 1e-12
 
 
 def test_nearest_face_push_out_tunnels_past_the_mid_plane(monkeypatch):
@@ -78,15 +80,15 @@ def test_nearest_face_push_out_tunnels_past_the_mid_plane(monkeypatch):
 
 def test_planted_continuous_time_of_impact_a_step_late_is_caught(monkeypatch):
     """The plate's contact applied at the end of the step (tau = h): the bounce is late by
-    dt - t_c like a discrete one, err 0.0999 of the travel against a bound of 4e-14."""
+    dt - t_c like a discrete one, err 0.00999 of the travel against a bound of 4e-13."""
     original = slab.plate_time_of_impact
 
-    def late(x, v, radii, center, normal, thickness, half_size, h):
-        s, k, m, tau = original(x, v, radii, center, normal, thickness, half_size, h)
+    def late(x, v, radii, center, normal, thickness, half_size, h, axes=None):
+        s, k, m, tau = original(x, v, radii, center, normal, thickness, half_size, h, axes)
         return s, k, m, np.full_like(tau, h)
     monkeypatch.setattr(slab, "plate_time_of_impact", late)
     row = _row("continuous")
-    assert row["consistency"] == "inconsistent" and row["err_max"] > 1e12 * row["tolerance"]
+    assert row["consistency"] == "inconsistent" and row["err_max"] > 1e10 * row["tolerance"]
 
 
 @pytest.mark.parametrize("formulation", ["discrete", "continuous"])
@@ -94,7 +96,7 @@ def test_planted_plate_ten_percent_thicker_is_caught(monkeypatch, formulation):
     """w 1.1x: the extent w + 2r grows by 1.7 %, the approach threshold moves to 1.018: 1.002
     bounces, 4 tunnel against the theory's 5 (discrete). Continuous: the thicker plate already
     overlaps the spheres at t = 0 (0.88 mm deep), they bounce at once, 2 delta = 0.24 mm
-    behind, 8e-4 of the slowest one's 0.3 m travel against a bound of 4e-14."""
+    behind, 8e-5 of the slowest one's 3 m travel against a bound of 4e-13."""
     from refsim.scene import Plates
     scene = CASE.scene
 
@@ -112,7 +114,7 @@ def test_planted_plate_ten_percent_thicker_is_caught(monkeypatch, formulation):
         assert row["tunnelled"] == 4 and row["threshold_ratio"] == 1.5
         assert "tunnelled 4" in row["consistency_reason"]
     else:
-        assert row["err_max"] > 1e9 * row["tolerance"]
+        assert row["err_max"] > 1e8 * row["tolerance"]
 
 
 def test_a_plate_side_the_case_does_not_know_is_a_reason():

@@ -39,7 +39,7 @@ def _sign(values, zero_as):
     return np.where(values > 0, 1.0, np.where(values < 0, -1.0, zero_as))
 
 
-def plate_contacts(x, radii, center, normal, thickness, half_size, x_before=None):
+def plate_contacts(x, radii, center, normal, thickness, half_size, x_before=None, axes=None):
     """Overlaps of spheres (x (s, 3), radii (s,)) with plates at the end of a step: (sphere,
     plate, normal m (k, 3), depth (k,)), depth > 0.
 
@@ -48,11 +48,11 @@ def plate_contacts(x, radii, center, normal, thickness, half_size, x_before=None
     slab is sent back, even with its centre past the mid-plane: the step tunnels only when it
     misses the slab, v dt >= w + 2 r + the gap); without, the face of least penetration,
     sign((x - c).n) (the rule "nearest": a centre past the mid-plane is pushed through). A
-    centre exactly on the mid-plane goes to +n."""
+    centre exactly on the mid-plane goes to +n. `axes`: the plates' `plate_axes`, if known."""
     rel = x[:, None, :] - center[None]
     d = np.einsum("spk,pk->sp", rel, normal)
     reach = thickness[None] / 2 + radii[:, None]
-    a, b = plate_axes(normal)
+    a, b = plate_axes(normal) if axes is None else axes
     touching = (np.abs(d) < reach) & _in_square(rel - d[..., None] * normal[None], a, b,
                                                 half_size[None])
     if x_before is None:
@@ -64,7 +64,7 @@ def plate_contacts(x, radii, center, normal, thickness, half_size, x_before=None
     return s, k, side[:, None] * normal[k], reach[s, k] - side * d[s, k]
 
 
-def plate_time_of_impact(x, v, radii, center, normal, thickness, half_size, h):
+def plate_time_of_impact(x, v, radii, center, normal, thickness, half_size, h, axes=None):
     """First contact within [0, h] of spheres moving at constant velocity v (s, 3) with the
     plates' faces: (sphere, plate, normal m (k, 3), tau (k,)).
 
@@ -81,7 +81,7 @@ def plate_time_of_impact(x, v, radii, center, normal, thickness, half_size, h):
         tau = np.where(np.abs(d) >= reach, (np.abs(d) - reach) / np.abs(vn), 0.0)
     at_contact = rel + tau[..., None] * v[:, None, :]
     dc = np.einsum("spk,pk->sp", at_contact, normal)
-    a, b = plate_axes(normal)
+    a, b = plate_axes(normal) if axes is None else axes
     inside = _in_square(at_contact - dc[..., None] * normal[None], a, b, half_size[None])
     s, k = np.nonzero(approaching & (tau <= h) & inside)
     side = _sign(d[s, k], 1.0)
