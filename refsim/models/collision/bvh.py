@@ -32,11 +32,11 @@ Queries, batched over M query spheres (centre c_q, radius r_q):
   (|c_q - c_p|^2 against (r_q + r_p)^2, as a brute force computes it).
 - `nearest`: for each query centre the primitive whose surface is nearest, the least
   |c_q - c_p| - r_p (negative inside a sphere; ties to the lower index), and that distance:
-  branch and bound on the same frontier. A first per-query bound `best` from one greedy path
-  down (the child of least lower bound at each level) and its leaf's primitives; at every
-  level `best` tightened by each kept node's upper bound (farthest corner of its centres' box
-  less its least radius: some primitive of the node is that close), and nodes whose lower
-  bound exceeds `best` dropped. Lower bound of a node: the distance to its centres' box less
+  branch and bound on the same frontier. A per-query bound `best` from one greedy path down
+  (the child of least lower bound at each level) and its leaf's primitives, then the frontier
+  drops the nodes whose lower bound exceeds `best`. (Tightening `best` on the way down by
+  each node's upper bound, the farthest corner of its centres' box less its least radius,
+  pruned no further node of these batches: left out.) Lower bound of a node: the distance to its centres' box less
   its largest radius, and where c_q is outside the node's sphere box, the distance to that box
   (no sphere of the node then contains c_q, and each sphere lies in the box).
 Round-off: the boxes are widened, and the pruning tests loosened, by PAD_EPS eps times the
@@ -61,7 +61,8 @@ BOX_KEYS = ("box_lo", "box_hi", "c_lo", "c_hi", "r_min", "r_max")
 class Bvh:
     """A BVH (see the module docstring); `levels[d]` holds level d's node arrays: "start",
     "end" (the range in the order), "child" (first child's index in level d + 1, -1 for a
-    leaf) and BOX_KEYS."""
+    leaf), BOX_KEYS, and "packed": the BOX_KEYS columns side by side (14 per node), the one
+    gather a query does per level."""
 
     order: np.ndarray  # (N,) primitive index at each position of the tree's order
     center: np.ndarray  # (N, 3) the centres in that order
@@ -197,6 +198,11 @@ def build(center, radius, leaf_size: int = 8, split: str = "morton") -> Bvh:
                leaf_size=int(leaf_size), split=split, pad=pad)
 
 
+def _rows(array, index):
+    """array[index] along the first axis (np.take: 2-3x faster than fancy indexing on rows)."""
+    return np.take(array, index, axis=0)
+
+
 def _box_distance(point, lo, hi) -> np.ndarray:
     """(k,) distance of each point to its box (0 inside)."""
     gap = np.maximum(np.maximum(lo - point, point - hi), 0.0)
@@ -237,33 +243,29 @@ def overlap_pairs(tree: Bvh, query_center, query_radius) -> np.ndarray:
     qr = np.asarray(query_radius, dtype=float)
 
     def near(d, query, node):
-        row, point = tree.levels[d]["packed"][node], qc[query]
+        row, point = _rows(tree.levels[d]["packed"], node), _rows(qc, query)
         gap = np.maximum(np.maximum(row[:, 0:3] - point, point - row[:, 3:6]), 0.0)
         reach = qr[query] + tree.pad
         return np.einsum("kj,kj->k", gap, gap) <= reach * reach
 
     query, pos = _frontier(tree, np.arange(len(qc)), near)
-    diff = qc[query] - tree.center[pos]
+    diff = _rows(qc, query) - _rows(tree.center, pos)
     reach = qr[query] + tree.radius[pos]
     hit = np.einsum("kj,kj->k", diff, diff) <= reach * reach
     pairs = np.stack([query[hit], tree.order[pos[hit]]], axis=1)
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
-def _node_bounds(tree: Bvh, d: int, point, node):
-    """Lower and upper bounds of min |c_q - c_p| - r_p over each node's primitives."""
-    row = tree.levels[d]["packed"][node]
-    lo, hi = row[:, 6:9], row[:, 9:12]
-    to_centres = _box_distance(point, lo, hi) - row[:, 13]
+def _lower_bound(tree: Bvh, d: int, point, node):
+    """A lower bound of min |c_q - c_p| - r_p over each node's primitives."""
+    row = _rows(tree.levels[d]["packed"], node)
+    to_centres = _box_distance(point, row[:, 6:9], row[:, 9:12]) - row[:, 13]
     to_box = _box_distance(point, row[:, 0:3], row[:, 3:6])
-    lower = np.where(to_box > 0, np.maximum(to_box, to_centres), to_centres)
-    far = np.maximum(np.abs(point - lo), np.abs(point - hi))
-    upper = np.sqrt(np.einsum("kj,kj->k", far, far)) - row[:, 12]
-    return lower, upper
+    return np.where(to_box > 0, np.maximum(to_box, to_centres), to_centres)
 
 
 def _values(tree: Bvh, qc, query, pos):
-    diff = qc[query] - tree.center[pos]
+    diff = _rows(qc, query) - _rows(tree.center, pos)
     return np.sqrt(np.einsum("kj,kj->k", diff, diff)) - tree.radius[pos]
 
 
@@ -282,8 +284,8 @@ def _descend(tree: Bvh, qc) -> np.ndarray:
         query, first = query[~leaf], child[~leaf]
         if not len(query):
             break
-        lower, _ = _node_bounds(tree, d + 1, np.repeat(qc[query], 2, axis=0),
-                                (first[:, None] + np.array([0, 1])).ravel())
+        lower = _lower_bound(tree, d + 1, np.repeat(_rows(qc, query), 2, axis=0),
+                             (first[:, None] + np.array([0, 1])).ravel())
         node = first + np.argmin(lower.reshape(-1, 2), axis=1)
     query, node, depth = map(np.concatenate, (leaf_q, leaf_n, leaf_d))
     start = np.concatenate([tree.levels[d]["start"][node[depth == d]]
@@ -306,9 +308,7 @@ def nearest(tree: Bvh, query_center):
     best = _descend(tree, qc) + slack
 
     def promising(d, query, node):
-        lower, upper = _node_bounds(tree, d, qc[query], node)
-        np.minimum.at(best, query, upper + slack)
-        return lower <= best[query]
+        return _lower_bound(tree, d, _rows(qc, query), node) <= best[query]
 
     query, pos = _frontier(tree, np.arange(m), promising)
     value = _values(tree, qc, query, pos)
