@@ -21,7 +21,7 @@ SIGNS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)
 
 def box_vertices(center, half, rot):
     """(n, 8, 3) world vertices c + R (s * h)."""
-    return center[:, None, :] + np.einsum("nij,vnj->nvi", rot, SIGNS[:, None, :] * half[None])
+    return center[:, None, :] + (SIGNS[None] * half[:, None, :]) @ np.swapaxes(rot, 1, 2)
 
 
 def box_edges(center, half, rot):
@@ -41,7 +41,7 @@ def box_edges(center, half, rot):
 def _points_to_box(points, center, half, rot):
     """Least distance from the points (n, m, 3) to the solid box: (distance (n,), vector from
     the box's closest point to the point (n, 3), world)."""
-    q = np.einsum("nji,nmj->nmi", rot, points - center[:, None, :])
+    q = (points - center[:, None, :]) @ rot
     r = q - np.clip(q, -half[:, None, :], half[:, None, :])
     d = np.linalg.norm(r, axis=-1)
     i = np.argmin(d, axis=1)
@@ -50,14 +50,13 @@ def _points_to_box(points, center, half, rot):
 
 
 def _segments(p1, d1, p2, d2):
-    """Closest points of segments p1 + s d1 and p2 + t d2 (broadcast, last axis 3), Ericson's
-    clamped form: the vector from the first's closest point to the second's."""
-    r = p1 - p2
-    a = np.einsum("...d,...d->...", d1, d1)
-    e = np.einsum("...d,...d->...", d2, d2)
-    b = np.einsum("...d,...d->...", d1, d2)
-    c = np.einsum("...d,...d->...", d1, r)
-    f = np.einsum("...d,...d->...", d2, r)
+    """Closest points of segments p1 + s d1 and p2 + t d2 (tuples of x, y, z arrays that
+    broadcast), Ericson's clamped form: (squared distance, the vector from the first's closest
+    point to the second's as x, y, z)."""
+    dot = lambda u, v: u[0] * v[0] + u[1] * v[1] + u[2] * v[2]  # noqa: E731
+    r = tuple(x1 - x2 for x1, x2 in zip(p1, p2))
+    a, e, b = dot(d1, d1), dot(d2, d2), dot(d1, d2)
+    c, f = dot(d1, r), dot(d2, r)
     denom = a * e - b * b
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.where(denom > 0, np.clip((b * f - c * e) / denom, 0.0, 1.0), 0.0)
@@ -65,7 +64,8 @@ def _segments(p1, d1, p2, d2):
     s = np.where(t < 0, np.clip(-c / a, 0.0, 1.0), np.where(t > 1, np.clip((b - c) / a, 0.0, 1.0),
                                                            s))
     t = np.clip(t, 0.0, 1.0)
-    return (p2 + t[..., None] * d2) - (p1 + s[..., None] * d1)
+    w = tuple(r2 + t * v2 - r1 - s * v1 for r1, v1, r2, v2 in zip(p1, d1, p2, d2))
+    return dot(w, w), w
 
 
 def box_distance(a_center, a_half, a_rot, b_center, b_half, b_rot):
@@ -77,15 +77,21 @@ def box_distance(a_center, a_half, a_rot, b_center, b_half, b_rot):
     d_ab, v_ab = _points_to_box(box_vertices(ac, a_half, a_rot), bc, b_half, b_rot)  # B -> A
     closer = d_ab < best
     best, vec = np.where(closer, d_ab, best), np.where(closer[:, None], -v_ab, vec)
-    pa, da = box_edges(ac, a_half, a_rot)
-    pb, db = box_edges(bc, b_half, b_rot)
+    best2 = best * best
+    pa, da = (tuple(np.ascontiguousarray(x[..., k]) for k in range(3))
+              for x in box_edges(ac, a_half, a_rot))
+    pb, db = (tuple(np.ascontiguousarray(x[..., k]) for k in range(3))
+              for x in box_edges(bc, b_half, b_rot))
     rows = np.arange(len(bc))
-    for i in range(12):
-        w = _segments(pa[:, i:i + 1], da[:, i:i + 1], pb, db)
-        d = np.linalg.norm(w, axis=-1)
-        j = np.argmin(d, axis=1)
-        dj = d[rows, j]
-        closer = dj < best
-        best, vec = np.where(closer, dj, best), np.where(closer[:, None], w[rows, j], vec)
+    for i in range(12):  # A's edge i against B's 12 edges, the batch at once
+        d2, w = _segments(tuple(x[:, i:i + 1] for x in pa), tuple(x[:, i:i + 1] for x in da),
+                          pb, db)
+        j = np.argmin(d2, axis=1)
+        dj = d2[rows, j]
+        closer = dj < best2
+        if closer.any():
+            best2 = np.where(closer, dj, best2)
+            vec = np.where(closer[:, None], np.stack([x[rows, j] for x in w], -1), vec)
+    best = np.sqrt(best2)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return best, vec / best[:, None]
+        return best, vec / np.linalg.norm(vec, axis=1)[:, None]

@@ -69,15 +69,13 @@ def _separations(pa, pb):
 
 def _sat(pa, pb):
     sa, sb = _separations(pa, pb), _separations(pb, pa)
-    ia, ib = np.argmax(sa, axis=1)[:, None], np.argmax(sb, axis=1)[:, None]
-    best_a = np.take_along_axis(sa, ia, 1)[:, 0]
-    best_b = np.take_along_axis(sb, ib, 1)[:, 0]
+    rows = np.arange(len(sa))
+    ia, ib = np.argmax(sa, axis=1), np.argmax(sb, axis=1)
+    best_a, best_b = sa[rows, ia], sb[rows, ib]
     use_a = best_a >= best_b
     axis = np.where(use_a[:, None],  # B's outward normal points towards A: negated
-                    np.stack([np.take_along_axis(pa.nx, ia, 1)[:, 0],
-                              np.take_along_axis(pa.ny, ia, 1)[:, 0]], -1),
-                    -np.stack([np.take_along_axis(pb.nx, ib, 1)[:, 0],
-                               np.take_along_axis(pb.ny, ib, 1)[:, 0]], -1))
+                    np.stack([pa.nx[rows, ia], pa.ny[rows, ia]], -1),
+                    -np.stack([pb.nx[rows, ib], pb.ny[rows, ib]], -1))
     return np.where(use_a, best_a, best_b), axis
 
 
@@ -96,22 +94,31 @@ def polygon_sat(a, a_count, b, b_count):
 
 def _points_to_edges(pts, poly):
     """Least distance from the vertices of `pts` to the real edges of `poly`: (distance (n,),
-    vector from the edge's closest point to the vertex (n, 2))."""
+    vector from the edge's closest point to the vertex (n, 2)). The pass keeps the squared
+    distance and the winning (vertex, edge); the vector is rebuilt for the winners alone, by
+    the same operations."""
     n = len(pts.x)
+    rows = np.arange(n)
     best = np.full(n, np.inf)
-    vx, vy = np.zeros(n), np.zeros(n)
+    vert, edge = np.zeros(n, int), np.zeros(n, int)
+
+    def gap(px, py, x, y, ex, ey, ee):
+        wx, wy = px - x, py - y
+        t = np.clip((wx * ex + wy * ey) / ee, 0.0, 1.0)
+        return wx - t * ex, wy - t * ey
+
     for j in range(pts.x.shape[1]):
-        wx, wy = pts.x[:, j:j + 1] - poly.x, pts.y[:, j:j + 1] - poly.y
-        t = np.clip((wx * poly.ex + wy * poly.ey) / poly.ee, 0.0, 1.0)
-        rx, ry = wx - t * poly.ex, wy - t * poly.ey
+        rx, ry = gap(pts.x[:, j:j + 1], pts.y[:, j:j + 1], poly.x, poly.y, poly.ex, poly.ey,
+                     poly.ee)
         d = np.where(poly.real, rx * rx + ry * ry, np.inf)
-        i = np.argmin(d, axis=1)[:, None]
-        dj = np.take_along_axis(d, i, 1)[:, 0]
+        i = np.argmin(d, axis=1)
+        dj = d[rows, i]
         closer = dj < best
         best = np.where(closer, dj, best)
-        vx = np.where(closer, np.take_along_axis(rx, i, 1)[:, 0], vx)
-        vy = np.where(closer, np.take_along_axis(ry, i, 1)[:, 0], vy)
-    return np.sqrt(best), np.stack([vx, vy], -1)
+        vert, edge = np.where(closer, j, vert), np.where(closer, i, edge)
+    rx, ry = gap(pts.x[rows, vert], pts.y[rows, vert], poly.x[rows, edge], poly.y[rows, edge],
+                 poly.ex[rows, edge], poly.ey[rows, edge], poly.ee[rows, edge])
+    return np.sqrt(best), np.stack([rx, ry], -1)
 
 
 def _distance(pa, pb):
@@ -162,11 +169,10 @@ def box_sat(a_center, a_half, a_rot, b_center, b_half, b_rot, parallel_sin=PARAL
     """SAT over the 15 axes: (separation (n,), axis (n, 3) from A to B), as polygon_sat."""
     axes, mask = box_axes(a_rot, b_rot, parallel_sin)
     t = np.asarray(b_center, float) - np.asarray(a_center, float)
-    proj_t = np.einsum("nd,nkd->nk", t, axes)
-    radius = (np.abs(np.einsum("ndi,nkd->nki", np.asarray(a_rot, float), axes)) @
-              np.asarray(a_half, float)[..., None])[..., 0]
-    radius += (np.abs(np.einsum("ndi,nkd->nki", np.asarray(b_rot, float), axes)) @
-               np.asarray(b_half, float)[..., None])[..., 0]
+    proj_t = (axes @ t[:, :, None])[..., 0]
+    radius = (np.abs(axes @ np.asarray(a_rot, float)) @ np.asarray(a_half, float)[..., None] +
+              np.abs(axes @ np.asarray(b_rot, float)) @ np.asarray(b_half, float)[..., None])
+    radius = radius[..., 0]
     s = np.where(mask, np.abs(proj_t) - radius, -np.inf)
     i = np.argmax(s, axis=1)
     rows = np.arange(len(t))
