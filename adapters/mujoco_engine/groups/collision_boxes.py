@@ -47,7 +47,7 @@ Formulations (docs/engine_notes.md#mujoco-box-pair-distance-routines):
   corner-to-corner gap of 2.598 m answered distmax), and 42 % of the others get the distance
   of the clipped contact points, not the gap (off by up to 0.73 m); penetrations prefer a face
   axis over an edge axis within 5 % of the depth (ODE's rule, in the collider's comments):
-  depths up to 0.9 % shallow, normals up to 7.9 deg off (8 % of overlapping pairs). The
+  depths up to 0.9 % too deep, normals up to 7.9 deg off (8 % of overlapping pairs). The
   declared "distance_tolerance" is 0: nothing excuses these.
 """
 from __future__ import annotations
