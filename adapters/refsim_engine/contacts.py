@@ -182,4 +182,5 @@ class ContactSim(Sim):
                              "faces")
             if self.formulation != "continuous":
                 out["plate_side"] = "approach"  # pushed back to the start-of-step side
+                out["plate_projection"] = "face"  # moved out onto that face at the step's end
         return out

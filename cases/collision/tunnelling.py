@@ -3,7 +3,7 @@
 
 Geometry. One static plate (Plates part): mid-plane through the origin, normal n = +x,
 thickness w, square of half side H in the y-z plane. n spheres of radius r, the i-th at
-y_i = (i - (n - 1) / 2) s (s = 4 r: never touching each other; H leaves every sphere more than
+z_i = (i - (n - 1) / 2) s (s = 4 r: never touching each other; H leaves every sphere more than
 s + 2 r inside the rim), all at x0 = -(w/2 + r + delta): a step ends (t = 0) with each sphere's
 front a hair delta = hair (w + 2 r) before the entry face, the worst phase. Sphere i moves at
 v_i = ratio_i (w + 2 r) / dt along +x, dt = `step` the case's one step; no gravity, contact
@@ -24,8 +24,15 @@ end of a step pushes the sphere (the engine's settings "plate_side"):
 - "nearest" (the default where an engine declares none): out of the face of least
   penetration, so a centre past the mid-plane is pushed through. Tunnels iff ratio >
   1/2 + hair (v dt > w/2 + r + delta).
-A bounced sphere sits on the entry face at t = k* dt and leaves at -e v: e v (k* dt - t_c)
-behind the exact one. Continuous detection (settings "detection": "continuous": the time of
+What happens to the overlap (settings "plate_projection"):
+- "face" (refsim; the default where an engine declares none): the sphere is moved out onto the
+  face at t = k* dt (the entry face when bounced, the far one when pushed through) and leaves
+  it at -e v (or flies on at v): e v (k* dt - t_c) behind the exact one;
+- "none": the velocity alone changes (an impulse, no positional correction in that step), so
+  the sphere leaves from where the step ended, d*, at -e v (pushed-through ones fly on freely):
+  e v (k* dt - t_c) + (d* + w/2 + r) behind (pybullet and pymunk behave so: they find the
+  overlap at the start of the next step and reverse the velocity before moving).
+Continuous detection (settings "detection": "continuous": the time of
 impact on the slab faces swept by the centre path) never tunnels and is exact.
 
 Observable `position`: every sphere's centre; the error per sample (the tolerance column
@@ -34,9 +41,10 @@ err_max) is max |x_i - x_exact_i| / (v_i T) over the spheres whose centre ends o
 error is its whole travel, which says nothing a verdict can bound; the tunnelled spheres are
 judged by the outcome rule below instead. Extra columns: `tunnelled` (spheres whose
 centre ends beyond the mid-plane), `threshold_ratio` (the lowest tunnelling ratio, NaN where
-none tunnelled), `bounce_ratio` (the highest non-tunnelling ratio), `late_bounce_err` (m: over
-the spheres ending on the near side, max |(x - x_exact).n - e v (k* dt - t_c)| at the end: a
-discrete bounce's offset from the theory, per sphere).
+none tunnelled), `bounce_ratio` (the highest non-tunnelling ratio), `bounce_depth_min` and
+`bounce_depth_max` (over the spheres ending on the near side, the share of its overlap a sphere
+kept when it bounced: (P + w/2 + r) / (d* + w/2 + r), P = x(T) + e v (T - k* dt) the point it
+left from at k* dt; 0 for "face", 1 for "none", per sphere).
 
 Verdict (consistency). Bound: the theory's own error (its bounced spheres' trajectory against
 the exact one, e (k* dt - t_c) / T, max over the steps, per the declared detection and plate
@@ -45,8 +53,9 @@ of the position a step and the contact-time arithmetic); a soft (spring-damper) 
 its stated restitution residual de (T - t_c) / T and (1 + e) (T_c + dt) / T for the contact's
 duration and a step of detection. `consistency_checks`: the tunnelled spheres are exactly the
 theory's (the count equals the theory's and the lowest tunnelling ratio is above the theory's
-threshold: then the set is the theory's), and for discrete impulse contacts the per-sphere
-`late_bounce_err` within the round-off bound 4 N eps S (S = max |x0| + v T). T = 100 steps
+threshold: then the set is the theory's), and for discrete impulse contacts both bounce depths
+the declared projection's (0 or 1) within round-off, 4 N eps S / min (d* + w/2 + r) (S = max
+|x0| + v T; a sphere's departure point P errs by the rounding of x(T)). T = 100 steps
 keeps a soft contact's duration over T resolved (MuJoCo's 0.1 s: bound 0.23 < 1/2).
 
 Measured on refsim (`refsim run --case tunnelling --engine refsim`): discrete tunnels 5,
@@ -58,7 +67,8 @@ test_tunnelling.py): continuous with the plate's time of impact at the step's en
 against 1.2e-13; the plate 10 % thicker in the scene than in the theory: discrete tunnels 4
 (from 1.5) against 5, continuous err 8e-5; refsim's push-out switched to the face of least
 penetration while declaring "approach": 9 tunnel from 0.502 (the "nearest" theory's set,
-consistent when declared so). Each inconsistent.
+consistent when declared so); its projection off while declaring "face": bounce depth 1 (the
+"none" theory's, consistent when declared so). Each inconsistent.
 """
 from __future__ import annotations
 
@@ -70,6 +80,7 @@ from refsim.scene import Body, ContactModel, Particles, Plates, Scene
 
 RATIOS = (0.25, 0.499, 0.5005, 0.502, 0.75, 0.999, 1.0005, 1.002, 1.5, 2.0, 3.0, 100.0)
 PLATE_SIDES = ("approach", "nearest")
+PROJECTIONS = ("face", "none")
 
 
 class Tunnelling(Case):
@@ -122,12 +133,12 @@ class Tunnelling(Case):
         n, r = len(self.ratios(p)), p["radius"]
         x = np.zeros((n, 3))
         x[:, 0] = -(p["thickness"] / 2 + r + self.delta(p))
-        x[:, 1] = (np.arange(n) - (n - 1) / 2) * 4 * r
+        x[:, 2] = (np.arange(n) - (n - 1) / 2) * 4 * r  # the x-z plane: 2D engines too
         return x
 
     def half_size(self, p) -> float:
         r = p["radius"]
-        return float(np.max(np.abs(self.start(p)[:, 1]))) + 6 * r
+        return float(np.max(np.abs(self.start(p)[:, 2]))) + 6 * r
 
     def scene(self, p):
         x, v = self.start(p), self.speeds(p)
@@ -191,7 +202,8 @@ class Tunnelling(Case):
             return np.inf
         return (0.5 if side == "nearest" else 1.0) + p["hair"]
 
-    def theory_trajectory(self, p, t, detection="discrete", side="nearest") -> np.ndarray:
+    def theory_trajectory(self, p, t, detection="discrete", side="nearest",
+                          projection="face") -> np.ndarray:
         """Centres' coordinate along n (t, n) under the detection theory."""
         t = np.asarray(t, float)[:, None]
         if detection == "continuous":
@@ -201,8 +213,9 @@ class Tunnelling(Case):
         k, d = self.first_overlap(p)
         tk = k * dt
         free = self.start(p)[:, 0] + v * t
-        bounce = np.where(t < tk, free, -half - e * v * (t - tk))
-        through = np.where(t < tk, free, half + v * (t - tk))
+        kept = projection == "none"
+        bounce = np.where(t < tk, free, (d if kept else -half) - e * v * (t - tk))
+        through = free if kept else np.where(t < tk, free, half + v * (t - tk))
         missed = d >= half
         pushed = ~missed & (d >= 0.0) & (side == "nearest")
         return np.where(missed, free, np.where(pushed, through, bounce))
@@ -230,12 +243,18 @@ class Tunnelling(Case):
         out = {"tunnelled": float(np.sum(beyond)),
                "threshold_ratio": float(np.min(ratios[beyond])) if beyond.any() else np.nan,
                "bounce_ratio": float(np.max(ratios[~beyond])) if (~beyond).any() else np.nan}
-        k, _ = self.first_overlap(p)
-        late = p["restitution"] * self.speeds(p) * (k * p["step"] - self.contact_time(p))
-        offset = x_end[:, 0] - np.asarray(reference["position"])[-1, :, 0]
-        out["late_bounce_err"] = float(np.max(np.abs(offset - late)[~beyond])) \
-            if (~beyond).any() else np.nan
+        depth = self.bounce_depth(p, x_end[:, 0])[~beyond]
+        out["bounce_depth_min"] = float(np.min(depth)) if len(depth) else np.nan
+        out["bounce_depth_max"] = float(np.max(depth)) if len(depth) else np.nan
         return out
+
+    def bounce_depth(self, p, x_end) -> np.ndarray:
+        """Per sphere, the share of its overlap d* + w/2 + r it kept when it left at k* dt:
+        (P + w/2 + r) / (d* + w/2 + r), P = x(T) + e v (T - k* dt)."""
+        k, d = self.first_overlap(p)
+        half = p["thickness"] / 2 + p["radius"]
+        point = x_end + p["restitution"] * self.speeds(p) * (self.t_end(p) - k * p["step"])
+        return (point + half) / (d + half)
 
     def energy(self, p, obs):
         return 0.5 * np.einsum("tjk,tjk->t", obs["v"], obs["v"])  # unit masses
@@ -250,11 +269,11 @@ class Tunnelling(Case):
 
     # -- verdicts ----------------------------------------------------------------------------
     @staticmethod
-    def detection_of(settings) -> tuple[str, str]:
-        """(detection, plate side) an engine declares."""
+    def detection_of(settings) -> tuple[str, str, str]:
+        """(detection, plate side, plate projection) an engine declares."""
         s = settings if isinstance(settings, dict) else {}
-        side = str(s.get("plate_side", "nearest"))
-        return ContactInfo.of(settings).detection, side
+        return (ContactInfo.of(settings).detection, str(s.get("plate_side", "nearest")),
+                str(s.get("plate_projection", "face")))
 
     def roundoff(self, p) -> float:
         """Position round-off (m) of the sphere travelling farthest: 4 N eps S."""
@@ -268,10 +287,10 @@ class Tunnelling(Case):
         return float(np.max(4 * p["steps"] * EPS * scale / travel))
 
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
-        detection, side = self.detection_of(settings)
+        detection, side, projection = self.detection_of(settings)
         contact = ContactInfo.of(settings)
         t = np.arange(p["steps"] + 1) * p["step"]
-        theory = self.theory_trajectory(p, t, detection, side)
+        theory = self.theory_trajectory(p, t, detection, side, projection)
         exact = self.reference(p, t)["position"][:, :, 0]
         travel = self.speeds(p) * self.t_end(p)
         bounced = ~self.theory_tunnels(p, detection, side)
@@ -282,10 +301,12 @@ class Tunnelling(Case):
             reason = ("continuous detection (time of impact on the slab faces): the exact "
                       "trajectory")
         else:
-            reason = (f"discrete detection, plate side {side!r}: the theory's own error "
-                      f"{own:.6g} of the travel (its bounced spheres bounce at the end of the "
-                      f"step k* that overlaps, e v (k* dt - t_c) behind the exact ones, "
-                      f"max e (k* dt - t_c) / T)")
+            behind = "e v (k* dt - t_c)" if projection == "face" else \
+                "e v (k* dt - t_c) + d* + w/2 + r"
+            reason = (f"discrete detection, plate side {side!r}, projection {projection!r}: "
+                      f"the theory's own error {own:.6g} of the travel (its bounced spheres "
+                      f"leave at the end of the step k* that overlaps, {behind} behind the "
+                      f"exact ones, over v T)")
         reason += (f"; plus round-off 4 N eps (|x0| + v T) / (v T) = "
                    f"{self.roundoff_relative(p):.3g}")
         if contact.soft:
@@ -300,10 +321,12 @@ class Tunnelling(Case):
         return bound, reason
 
     def consistency_checks(self, p, row, settings):
-        detection, side = self.detection_of(settings)
+        detection, side, projection = self.detection_of(settings)
         reasons = []
         if detection != "continuous" and side not in PLATE_SIDES:
             return [f"plate_side must be one of {list(PLATE_SIDES)}, got {side!r}"]
+        if detection != "continuous" and projection not in PROJECTIONS:
+            return [f"plate_projection must be one of {list(PROJECTIONS)}, got {projection!r}"]
         expected = int(np.sum(self.theory_tunnels(p, detection, side)))
         threshold = self.theory_threshold(p, detection, side)
         got, lowest = row.get("tunnelled", np.nan), row.get("threshold_ratio", np.nan)
@@ -313,11 +336,16 @@ class Tunnelling(Case):
                 f"plate side {side!r}) tunnels {expected} spheres, every ratio above "
                 f"{threshold:g}")
         if detection == "discrete" and not ContactInfo.of(settings).soft:
-            late = row.get("late_bounce_err", np.nan)
-            if late > self.roundoff(p):
-                reasons.append(f"late_bounce_err {late:.3g} m: a bounced sphere is not on the "
-                               f"entry face at the end of its overlapping step (round-off "
-                               f"{self.roundoff(p):.3g})")
+            want = 0.0 if projection == "face" else 1.0
+            k, d = self.first_overlap(p)
+            bounced = ~self.theory_tunnels(p, detection, side)
+            depth = d[bounced] + p["thickness"] / 2 + p["radius"]
+            tol = self.roundoff(p) / float(np.min(depth)) if bounced.any() else 0.0
+            low, high = row.get("bounce_depth_min", np.nan), row.get("bounce_depth_max", np.nan)
+            if bounced.any() and not (abs(low - want) <= tol and abs(high - want) <= tol):
+                reasons.append(f"bounce depth {low:.3g}..{high:.3g}: the bounced spheres did "
+                               f"not leave from where projection {projection!r} puts them "
+                               f"({want:g} of their overlap kept, round-off {tol:.3g})")
         return reasons
 
 

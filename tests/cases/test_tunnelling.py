@@ -35,10 +35,11 @@ def test_discrete_tunnels_exactly_at_the_theorys_threshold():
     row = _row("discrete")
     assert row["consistency"] == "consistent", row["consistency_reason"]
     assert (row["tunnelled"], row["threshold_ratio"], row["bounce_ratio"]) == (5, 1.002, 1.0005)
-    # a bounced sphere sits on the entry face after its overlapping step: e v (dt - t_c)
-    # behind the exact one; the offset per sphere to round-off: x and the exact x of the
-    # bounced spheres (|x| <= 12 m), each a few roundings, 16 eps of 12 m in all
-    assert row["late_bounce_err"] <= 16 * np.finfo(float).eps * 12
+    # a bounced sphere leaves from the entry face at the end of its overlapping step (none of
+    # its overlap kept), per sphere to round-off: x(T) and e v (T - dt) (|x| <= 12 m), a few
+    # roundings each, over the smallest overlap v dt - delta = 0.03 m: 16 eps 12 / 0.03
+    assert abs(row["bounce_depth_min"]) <= 16 * np.finfo(float).eps * 12 / 0.03
+    assert abs(row["bounce_depth_max"]) <= 16 * np.finfo(float).eps * 12 / 0.03
     assert row["err_max"] <= row["tolerance"] < 0.01 + 1e-12  # e (dt - t_c) / T, T = 100 dt
 
 
@@ -122,3 +123,29 @@ def test_a_plate_side_the_case_does_not_know_is_a_reason():
     reasons = CASE.consistency_checks(THRESHOLD, row, {"detection": "discrete",
                                                        "plate_side": "sideways"})
     assert reasons and "plate_side" in reasons[0]
+
+
+def test_no_projection_leaves_from_the_overlap_and_is_told_apart(monkeypatch):
+    """refsim with its positional projection off (the velocity alone reverses, as pybullet and
+    pymunk do): every bounced sphere leaves from where its step ended (depth 1), the tunnelled
+    set unchanged; declared 'face' it is caught, declared 'none' it is consistent, its error
+    (d* + w/2 + r more per sphere) within the 'none' theory's bound."""
+    from refsim_adapters.refsim_engine import contacts
+    monkeypatch.setattr(contacts.col, "project_walls", lambda x, s, normals, depth: None)
+    row = _row("discrete")
+    assert row["tunnelled"] == 5
+    assert row["bounce_depth_min"] == pytest.approx(1.0, abs=1e-12)  # round-off, as above
+    assert row["bounce_depth_max"] == pytest.approx(1.0, abs=1e-12)
+    assert row["consistency"] == "inconsistent" and "bounce depth" in row["consistency_reason"]
+    settings = {"detection": "discrete", "plate_side": "approach", "plate_projection": "none"}
+    assert CASE.consistency_checks(THRESHOLD, row, settings) == []
+    bound, _ = CASE.tolerance(THRESHOLD, "symplectic_euler", 1, 0.01, "", settings)
+    face, _ = CASE.tolerance(THRESHOLD, "symplectic_euler", 1, 0.01, "",
+                             {**settings, "plate_projection": "face"})
+    assert face < row["err_max"] <= bound
+
+
+def test_an_unknown_projection_is_a_reason():
+    reasons = CASE.consistency_checks(THRESHOLD, {"tunnelled": 5.0}, {
+        "detection": "discrete", "plate_side": "approach", "plate_projection": "half"})
+    assert reasons and "plate_projection" in reasons[0]
