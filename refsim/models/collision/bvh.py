@@ -6,7 +6,7 @@ a node of more than `leaf_size` primitives is split in two at a position the spl
 the others are leaves (the leaves partition the order). The tree is stored level by level
 (root at level 0): each node's range, its first child's index in the next level (-1 for a
 leaf), the box of its spheres (c -+ r, widened by the round-off pad below), the box of its
-centres and its least and largest radius. The build goes down once for the ranges and up once
+centres and its largest radius. The build goes down once for the ranges and up once
 for the boxes (the leaves' by one np.minimum/maximum.reduceat over the ordered spheres, an inner
 node's from its two children).
 
@@ -54,14 +54,17 @@ EPS = float(np.finfo(float).eps)
 PAD_EPS = 8.0  # the round-off pad in eps of the scale: 4 for each of two rounded terms
 SPLITS = ("morton", "median")
 MORTON_BITS = 21  # per axis: 63 bits in a uint64
-BOX_KEYS = ("box_lo", "box_hi", "c_lo", "c_hi", "r_min", "r_max")
+BOX_KEYS = ("box_lo", "box_hi", "c_lo", "c_hi", "r_max")
+COLUMNS = {"box_lo": slice(0, 3), "box_hi": slice(3, 6), "c_lo": slice(6, 9),
+           "c_hi": slice(9, 12), "r_max": 12}  # of a node's packed row
+SIGN = np.array([1.0] * 3 + [-1.0] * 3 + [1.0] * 3 + [-1.0] * 3 + [-1.0])  # maxima: -1
 
 
 @dataclass(frozen=True, eq=False)
 class Bvh:
     """A BVH (see the module docstring); `levels[d]` holds level d's node arrays: "start",
     "end" (the range in the order), "child" (first child's index in level d + 1, -1 for a
-    leaf), BOX_KEYS, and "packed": the BOX_KEYS columns side by side (14 per node), the one
+    leaf), BOX_KEYS, and "packed": the BOX_KEYS columns side by side (13 per node), the one
     gather a query does per level."""
 
     order: np.ndarray  # (N,) primitive index at each position of the tree's order
@@ -92,10 +95,11 @@ def _spread_bits(v: np.ndarray) -> np.ndarray:
 
 def morton_codes(center: np.ndarray) -> np.ndarray:
     """(N,) uint64 Morton codes of the centres quantised to 2^21 cells per axis of their box."""
-    lo, hi = center.min(axis=0), center.max(axis=0)
+    rows = np.ascontiguousarray(np.asarray(center, dtype=float).T)  # (3, N): fast reductions
+    lo, hi = rows.min(axis=1)[:, None], rows.max(axis=1)[:, None]
     span = np.where(hi > lo, hi - lo, 1.0)
-    cells = np.floor((center - lo) / span * ((1 << MORTON_BITS) - 1)).astype(np.int64)
-    x, y, z = (_spread_bits(cells[:, k]) for k in range(3))
+    cells = np.floor((rows - lo) / span * ((1 << MORTON_BITS) - 1)).astype(np.int64)
+    x, y, z = (_spread_bits(cells[k]) for k in range(3))
     return (x << np.uint64(2)) | (y << np.uint64(1)) | z
 
 
@@ -163,7 +167,7 @@ def build(center, radius, leaf_size: int = 8, split: str = "morton") -> Bvh:
         raise ValueError(f"bvh leaf_size must be >= 2, got {leaf_size}")
     codes = morton_codes(center) if split == "morton" else None
     order, levels = _ranges(center, codes, leaf_size, split)
-    c, r = center[order], radius[order]
+    c, r = np.take(center, order, axis=0), radius[order]
     pad = PAD_EPS * EPS * (float(np.abs(center).max()) + float(radius.max()))
     # the leaves, every level's together, partition the order: one reduceat for them all
     leaf_start = np.concatenate([lv["start"][lv["child"] < 0] for lv in levels])
@@ -171,29 +175,26 @@ def build(center, radius, leaf_size: int = 8, split: str = "morton") -> Bvh:
     back = np.empty_like(by_start)
     back[by_start] = np.arange(len(by_start))  # start order -> level order
     at = leaf_start[by_start]
+    # one row per node, BOX_KEYS' columns side by side, the maxima negated so that one
+    # minimum reduces them all (negation is exact: the same values as a min and a max)
     ct, rt = np.ascontiguousarray(c.T), r[None, :]  # rows of N: reduceat along contiguous rows
-    leaf_boxes = {"box_lo": np.minimum.reduceat(ct - rt, at, axis=1).T[back] - pad,
-                  "box_hi": np.maximum.reduceat(ct + rt, at, axis=1).T[back] + pad,
-                  "c_lo": np.minimum.reduceat(ct, at, axis=1).T[back],
-                  "c_hi": np.maximum.reduceat(ct, at, axis=1).T[back],
-                  "r_min": np.minimum.reduceat(r, at)[back],
-                  "r_max": np.maximum.reduceat(r, at)[back]}
+    signed = np.concatenate([ct - rt, -(ct + rt), ct, -ct, -rt])
+    leaf_rows = np.minimum.reduceat(signed, at, axis=1).T[back]
+    leaf_rows[:, :6] -= pad  # box_lo - pad, -(box_hi + pad)
     first_leaf = np.cumsum([0] + [int((lv["child"] < 0).sum()) for lv in levels])
     for d in range(len(levels) - 1, -1, -1):  # leaves, then inner nodes from their children
         lv = levels[d]
         inner = lv["child"] >= 0
-        mine = slice(first_leaf[d], first_leaf[d + 1])
-        for key in BOX_KEYS:
-            values = np.empty((len(lv["start"]),) + leaf_boxes[key].shape[1:])
-            values[~inner] = leaf_boxes[key][mine]
-            if inner.any():
-                below = levels[d + 1][key]
-                first, second = below[lv["child"][inner]], below[lv["child"][inner] + 1]
-                values[inner] = (np.minimum(first, second) if key.endswith(("lo", "min"))
-                                 else np.maximum(first, second))
-            lv[key] = values
-        # one row per node for the queries' gathers: box_lo, box_hi, c_lo, c_hi, r_min, r_max
-        lv["packed"] = np.column_stack([lv[key] for key in BOX_KEYS])
+        rows = np.empty((len(lv["start"]), len(SIGN)))
+        rows[~inner] = leaf_rows[first_leaf[d]:first_leaf[d + 1]]
+        if inner.any():
+            below, first = levels[d + 1]["signed"], lv["child"][inner]
+            rows[inner] = np.minimum(np.take(below, first, axis=0),
+                                     np.take(below, first + 1, axis=0))
+        lv["signed"] = rows
+    for lv in levels:
+        lv["packed"] = lv.pop("signed") * SIGN
+        lv.update({key: lv["packed"][:, cols] for key, cols in COLUMNS.items()})
     return Bvh(order=order, center=c, radius=r, levels=tuple(levels),
                leaf_size=int(leaf_size), split=split, pad=pad)
 
@@ -259,7 +260,7 @@ def overlap_pairs(tree: Bvh, query_center, query_radius) -> np.ndarray:
 def _lower_bound(tree: Bvh, d: int, point, node):
     """A lower bound of min |c_q - c_p| - r_p over each node's primitives."""
     row = _rows(tree.levels[d]["packed"], node)
-    to_centres = _box_distance(point, row[:, 6:9], row[:, 9:12]) - row[:, 13]
+    to_centres = _box_distance(point, row[:, 6:9], row[:, 9:12]) - row[:, 12]
     to_box = _box_distance(point, row[:, 0:3], row[:, 3:6])
     return np.where(to_box > 0, np.maximum(to_box, to_centres), to_centres)
 
