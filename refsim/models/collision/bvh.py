@@ -6,9 +6,9 @@ a node of more than `leaf_size` primitives is split in two at a position the spl
 the others are leaves (the leaves partition the order). The tree is stored level by level
 (root at level 0): each node's range, its first child's index in the next level (-1 for a
 leaf), the box of its spheres (c -+ r, widened by the round-off pad below), the box of its
-centres and its largest radius. The build goes down once for the ranges and up once
-for the boxes (the leaves' by one np.minimum/maximum.reduceat over the ordered spheres, an inner
-node's from its two children).
+centres and its largest radius. The build goes down once for the ranges and up once for
+the boxes (the leaves' by one np.minimum.reduceat over the ordered spheres, maxima negated;
+an inner node's from its two children).
 
 Splits (formulations):
 - "morton" (default): one sort by the 63-bit Morton code of the centres (21 bits per axis over
