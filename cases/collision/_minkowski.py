@@ -9,7 +9,8 @@ Minkowski difference D = B - A = hull{b_j - a_i} of every pair, by Qhull
   with c that closest point (c = b* - a*: from A to B).
 - Overlapping: the depth is the least distance from the origin to a facet's plane, -max offset,
   and the normal minus that facet's outward normal (D's outward normals point from B to A:
-  moving B by depth x normal moves D by as much, taking its nearest facet past the origin). `normal_gap` is the depth difference to the nearest facet of another plane: where it is
+  moving B by depth x normal moves D by as much, taking its nearest facet past the origin).
+  `normal_gap` is the depth difference to the nearest facet of another plane: where it is
   within a case's margin the normal is ambiguous at round-off.
 
 The hull is the only loop over pairs (one Qhull call each, ~70-90 us: 0.1 s per 10^3 pairs);
