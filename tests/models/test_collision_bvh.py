@@ -121,6 +121,21 @@ def test_tree_boxes_hold_their_spheres_and_children(split):
     np.testing.assert_array_equal(covered, 1)  # the leaves partition the order
 
 
+@pytest.mark.parametrize("name", ["random_2000", "line", "clusters", "coincident"])
+def test_median_split_halves_each_node_along_its_widest_axis(name):
+    """Every inner node of the median tree: left child (count // 2 primitives) at or below
+    the right along the longest side of the node's centres' box (a partition, not a sort)."""
+    center, radius, _, _ = SETS[name]
+    tree = bvh.build(center, radius, leaf_size=4, split="median")
+    for lv in tree.levels:
+        for s, e, child, lo, hi in zip(lv["start"], lv["end"], lv["child"], lv["c_lo"],
+                                       lv["c_hi"]):
+            if child < 0:
+                continue
+            axis, cut = int(np.argmax(hi - lo)), (s + e) // 2
+            assert tree.center[s:cut, axis].max() <= tree.center[cut:e, axis].min()
+
+
 def test_morton_codes_interleave_the_bits():
     """x, y, z cells 2^21 - 1, 0, 0 and the corner: code bits 2, 5, 8 ... of x."""
     center = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.0, 1.0, 0.0]])

@@ -16,10 +16,10 @@ Splits (formulations):
   searchsorted per level; at the middle where all its codes are equal): a spatial median of
   the node's Morton cell, the LBVH (radix) tree. Build O(N log N): the sort, then O(N) per
   level.
-- "median": top-down, level by level, each node's range sorted along the longest axis of its
-  centres' box (one argsort per level of a key ordering by node, then coordinate) and split at
-  its middle: an object median on the widest axis (a k-d split), a balanced tree. Build
-  O(N log N) per level, O(N log^2 N) in all.
+- "median": top-down, level by level, each node's range partitioned at its middle along the
+  longest axis of its centres' box (np.argpartition over the level's ranges as rows of one
+  padded matrix): an object median on the widest axis (a k-d split), a balanced tree. Build
+  O(N) per level, O(N log N) in all.
 An object median along the Morton order instead (an implicit complete tree) was tried first:
 its nodes straddle the octant boundaries, their boxes span both sides, and the nearest
 query's frontier held about 100 leaves per query at N = 1e5 (6 with either split above).
@@ -36,9 +36,10 @@ Queries, batched over M query spheres (centre c_q, radius r_q):
   (the child of least lower bound at each level) and its leaf's primitives, then the frontier
   drops the nodes whose lower bound exceeds `best`. (Tightening `best` on the way down by
   each node's upper bound, the farthest corner of its centres' box less its least radius,
-  pruned no further node of these batches: left out.) Lower bound of a node: the distance to its centres' box less
-  its largest radius, and where c_q is outside the node's sphere box, the distance to that box
-  (no sphere of the node then contains c_q, and each sphere lies in the box).
+  pruned no further node of these batches: left out.) Lower bound of a node: the distance
+  to its centres' box less its largest radius, and where c_q is outside the node's sphere
+  box, the distance to that box (no sphere of the node then contains c_q, and each sphere
+  lies in the box).
 Round-off: the boxes are widened, and the pruning tests loosened, by PAD_EPS eps times the
 scene's scale (largest |coordinate| of any centre plus the largest radius), which exceeds the
 rounding of c -+ r, of the box distances and of the exact test's own terms: no pair the exact
@@ -114,20 +115,26 @@ def _radix_split(codes, start, end) -> np.ndarray:
     return np.where(a == b, (start + end) // 2, cut)
 
 
-def _median_sort(center, order, start, end):
-    """Each range of `order` sorted along its centres' widest axis (in place of `order`)."""
+def _median_split(rows, order, start, end):
+    """Each range of `order` partitioned along its centres' widest axis (`rows`: the centres
+    transposed, (3, N)), its first count // 2 positions the lower half (in place of `order`):
+    the ranges as rows of one padded matrix (pads +inf), np.argpartition along the rows at
+    each half and at each row's end (the pads past it). O(N) per level: a median split's
+    ranges at one level differ in length by one at most."""
     count = end - start
-    offset = np.cumsum(count) - count  # each range's first row in the gathered rows
-    pos = np.repeat(start - offset, count) + np.arange(count.sum())
-    node = np.repeat(np.arange(len(start)), count)
-    c = center[order[pos]]
-    lo, hi = np.minimum.reduceat(c, offset), np.maximum.reduceat(c, offset)
-    axis = np.argmax(hi - lo, axis=1)
-    width = np.take_along_axis(hi - lo, axis[:, None], 1)[:, 0]
-    t = (c[np.arange(len(c)), axis[node]] - lo[node, axis[node]]) \
-        / np.where(width > 0, width, 1.0)[node]
-    # node first, then the coordinate's fraction of the node's width (t in [0, 1])
-    order[pos] = order[pos][np.argsort(node + 0.5 * t, kind="stable")]
+    span = int(count.max())
+    idx = start[:, None] + np.arange(span)[None, :]
+    valid = idx < end[:, None]
+    idx = np.where(valid, idx, start[:, None])
+    members = order[idx]
+    c = np.take(rows, members, axis=1)  # (3, ranges, span): reductions along contiguous rows
+    lo = np.where(valid, c, np.inf).min(axis=2)
+    hi = np.where(valid, c, -np.inf).max(axis=2)
+    axis = np.argmax(hi - lo, axis=0)
+    key = np.where(valid, np.take_along_axis(c, axis[None, :, None], 0)[0], np.inf)
+    kth = np.union1d(count // 2, count[count < span])  # pads sorted past every row's end
+    parted = np.take_along_axis(members, np.argpartition(key, kth, axis=1), axis=1)
+    order[idx[valid]] = parted[valid]
 
 
 def _ranges(center, codes, leaf_size, split):
@@ -135,6 +142,7 @@ def _ranges(center, codes, leaf_size, split):
     n = len(center)
     order = np.argsort(codes) if split == "morton" else np.arange(n)
     sorted_codes = codes[order] if split == "morton" else None
+    rows = None if split == "morton" else np.ascontiguousarray(center.T)
     start, end = np.zeros(1, dtype=np.int64), np.full(1, n, dtype=np.int64)
     levels = []
     while len(start):
@@ -146,7 +154,7 @@ def _ranges(center, codes, leaf_size, split):
             cut = _radix_split(sorted_codes, s, e)
         else:
             if len(s):
-                _median_sort(center, order, s, e)
+                _median_split(rows, order, s, e)
             cut = (s + e) // 2
         start = np.stack([s, cut], axis=1).ravel()
         end = np.stack([cut, e], axis=1).ravel()
