@@ -90,6 +90,8 @@ def plate_settings(plates, formulation: str) -> dict:
     return {
         "detection": "continuous" if ccd else "discrete",
         "plate_side": "nearest",
+        # the overlap is kept (contact ERP 0): the velocity alone changes at the next step
+        "plate_projection": "none",
         "plate_side_note": ("an overlap found at a step's end pushes the sphere out of the face "
                             "of least penetration (through, once its centre is past the "
                             "mid-plane); the overlap is kept (contact ERP 0): the bounce "

@@ -21,6 +21,8 @@ class TaichiEngine(Engine):
     dims = (2, 3)
     integrators = INTEGRATORS
     refusals = {
+                "plates": "taichi's sphere kernels collide spheres with planes only: thin "
+                          "plates (finite slabs, the tunnelling case) are not written",
                 # the collision queries (issue 28): no collision, BVH or SDF API in taichi (only
                 # sorting and prefix sums); kernels for them are not written
                 **dict.fromkeys(("polygon_pairs", "box_pairs", "sdf_probes", "bvh_queries",
