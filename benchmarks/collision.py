@@ -14,8 +14,11 @@ function `item(quick, repeats) -> list[figure]` appended to ITEMS).
    of log time against log N, least squares over the three sizes and over the last decade;
    goals (issue 28): build and query exponents at most 1.2 for N up to 1e5 (query: per query
    ~log N, so the batch's exponent in N far below 1; brute force ~1 for comparison).
-Times: best of repeats after a warm-up (the brute force: one timing at N = 1e5). The machine
-is shared: the exponents move with its load (read two runs before trusting a digit).
+Times: CPU time of the process (time.process_time; numpy runs all of it on one thread, so
+on a quiet machine it is the wall time), best of repeats after a warm-up (the brute force: one
+timing at N = 1e5). On the shared 2-core machine at a load of 4-6, two runs a minute apart
+gave wall times 2-4x these CPU times; the CPU times and exponents still move with the load
+(caches shared): read two runs before trusting a digit.
 `--quick`: the same sizes, one timing each. `main` returns the figures for the store.
 """
 from __future__ import annotations
@@ -24,7 +27,18 @@ import time
 
 import numpy as np
 
-from refsim_benchmarks.inhouse import best_time
+
+def best_time(fn, repeats):
+    """Least CPU time of this process over `repeats` calls after a warm-up (numpy runs these
+    on one thread: on a quiet machine the wall time; on a shared one, steadier)."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.process_time()
+        fn()
+        times.append(time.process_time() - t0)
+    return min(times)
+
 
 GOAL_EXPONENT = 1.2
 BVH_SIZES = (1000, 10000, 100000)
@@ -62,9 +76,9 @@ def bvh_rows(quick, repeats):
     for n in BVH_SIZES:
         p = case.validate({**case.variant_params("default"), "n": n, "m": BVH_QUERIES})
         part = case.scene(p).parts[0]
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         exact = case.exact(p)
-        brute = time.perf_counter() - t0
+        brute = time.process_time() - t0
         if not quick and brute < 2.0:
             brute = min(brute, best_time(lambda: case.exact(p), repeats))
 
@@ -136,7 +150,8 @@ ITEMS = [bvh_item]
 
 def main(quick: bool = False) -> list[dict]:
     repeats = 1 if quick else 5
-    print(f"threads: numpy 1; times: best of {repeats} after a warm-up")
+    print(f"threads: numpy 1; times: CPU time (process_time), best of {repeats} after a "
+          "warm-up")
     figures = []
     for item in ITEMS:
         figures += item(quick, repeats)
