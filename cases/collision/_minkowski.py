@@ -119,6 +119,8 @@ def oracle(a_pts, a_count, b_pts, b_count) -> dict:
 
 
 # -- what the two pair cases share: answers, measures, bounds ---------------------------------
+FAR = 1e-3  # m: pairs this far from touching get a normal bound an engine's tolerance leaves
+#             finite (the touching share's gaps stop here)
 K_ROUNDING = 16  # round-off factor of the bounds (the cases' docstrings derive and measure it)
 
 
@@ -131,6 +133,8 @@ class ConvexPairCase(QueryCase):
     answers = ("overlap", "distance", "normal")
     measures = {"distance_err": ("m", "max |d - d*| over every pair (signed distances)"),
                 "normal_err_deg": ("deg", "max angle between normal and n* where n* is defined"),
+                "normal_err_far_deg": ("deg", f"the same over the pairs {FAR:g} m or more from "
+                                              "touching (and from a second plane's depth)"),
                 "false_negatives": ("pairs", "overlapping by more than the margin, answered apart"),
                 "false_positives": ("pairs", "apart by more than the margin, answered overlapping"),
                 "ambiguous": ("pairs", "|d*| <= margin (overlap undefined) or an overlapping "
@@ -169,21 +173,26 @@ class ConvexPairCase(QueryCase):
         d, margin = exact["distance"], p["margin"]
         sure = np.abs(d) > margin
         normal_ok = sure & (exact["normal_gap"] > margin)
-        return sure, normal_ok
+        far = (np.abs(d) >= FAR) & (exact["normal_gap"] >= FAR)
+        return sure, normal_ok, far
 
     def measure(self, p, answered, exact) -> dict:
         idx = exact["index"]
         d = np.asarray(answered["distance"], float)[idx]
         over = np.asarray(answered["overlap"], float)[idx] > 0.5
         nrm = np.asarray(answered["normal"], float).reshape(int(p["n"]), -1)[idx]
-        sure, normal_ok = self._classes(p, exact)
+        sure, normal_ok, far = self._classes(p, exact)
         err = np.abs(d - exact["distance"])
-        cos = np.einsum("nd,nd->n", nrm, exact["normal"]) / np.linalg.norm(nrm, axis=1)
-        angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-        angle = np.where(np.isfinite(cos), angle, 180.0)[normal_ok]
+        ref = exact["normal"]
+        cos = np.einsum("nd,nd->n", nrm, ref)
+        sin = np.abs(nrm[:, 0] * ref[:, 1] - nrm[:, 1] * ref[:, 0]) if ref.shape[1] == 2 else \
+            np.linalg.norm(np.cross(nrm, ref), axis=1)
+        angle = np.degrees(np.arctan2(sin, cos))  # not arccos: its resolution near 0 is 2e-8 rad
+        angle = np.where(np.isfinite(angle), angle, 180.0)
         truth = exact["overlap"] > 0.5
         return {"distance_err": float(np.max(np.where(np.isfinite(err), err, np.inf))),
-                "normal_err_deg": float(np.max(angle, initial=0.0)),
+                "normal_err_deg": float(np.max(angle[normal_ok], initial=0.0)),
+                "normal_err_far_deg": float(np.max(angle[far], initial=0.0)),
                 "false_negatives": int(np.sum(sure & truth & ~over)),
                 "false_positives": int(np.sum(sure & ~truth & over)),
                 "ambiguous": int(np.sum(~normal_ok))}
@@ -191,19 +200,23 @@ class ConvexPairCase(QueryCase):
     def bounds(self, p, settings) -> dict:
         tol = float((settings or {}).get("distance_tolerance", 0.0))
         ex = self.exact_cached(p)
-        sure, normal_ok = self._classes(p, ex)
+        sure, normal_ok, far = self._classes(p, ex)
         reach = np.where(ex["overlap"] > 0.5, ex["feature"], np.minimum(np.abs(ex["distance"]),
                                                                           ex["feature"]))
-        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + tol) / reach))[normal_ok]
+        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + tol) / reach))
+        far_bound = float(np.max(turn[far], initial=0.0)) if 2 * tol < FAR else 180.0
         near = int(np.sum(sure & (np.abs(ex["distance"]) <= tol)))
         extra = f"; plus the engine's declared distance_tolerance {tol:g} m" if tol else ""
         return {
             "distance_err": (float(ex["bound"].max()) + tol,
                              f"round-off K eps S (1 + lever), K = {K_ROUNDING}, S the pair's "
                              f"largest coordinate, largest over the batch" + extra),
-            "normal_err_deg": (float(np.max(turn, initial=0.0)),
+            "normal_err_deg": (float(np.max(turn[normal_ok], initial=0.0)),
                                "the distance bound over the length that turns the normal (the "
                                "shortest feature; apart, also |d*|), largest over the pairs"),
+            "normal_err_far_deg": (far_bound, "as normal_err_deg over the far pairs (an engine "
+                                   "within its tolerance picks the deepest plane there while "
+                                   f"2 x tolerance < {FAR:g} m)"),
             "false_negatives": (near, "pairs within the engine's distance tolerance of touching"
                                 if tol else "every compared pair is the margin from touching"),
             "false_positives": (near, "as false negatives")}

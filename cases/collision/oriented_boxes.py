@@ -13,14 +13,16 @@ Measures, margin (1e-9 m) and bounds as convex_polygons states them (ConvexPairC
 K eps S (1 + lever), K = 16, S the pair's largest |coordinate|, lever the pair's bounding-box
 diagonal over the shortest box edge (2 h); plus settings["distance_tolerance"] (m) where an
 engine declares one. Max B_i on the default batch 1.5e-12 m. Measured on refsim: distance_err
-1.6e-15 m, normal_err_deg 2.8e-5 (a pair ~1e-9 m apart), no false negatives or positives. The
+1.6e-15 m, normal_err_deg 2.8e-5 (a pair ~1e-9 m apart; bound 0.036), normal_err_far_deg
+9.8e-12 (bound 2.0e-8), no false negatives or positives. The
 large variant (10^5 pairs) compares a seeded sample of `checked` = 5000 with the oracle.
 
 Planted once (the default batch): inputs rounded to float32: distance_err 8.8e-7 m, 26 false
-negatives, 13 false positives, a normal 90 deg off; the normal's sign flipped: 180 deg, the
-rest unchanged; the 9 edge-edge axes dropped (parallel_sin = inf): distance_err 0.32 m, 44
-false positives, 161 deg. SAT's largest separation as the distance of separated pairs: up to
-0.15 m (21 %) short, on 36 % of them (vertex-edge, edge-edge and vertex-vertex closest pairs).
+negatives, 13 false positives, a normal 90 deg off (far pairs: 8.1e-3 deg); the normal's sign
+flipped: 180 deg, the rest unchanged; the 9 edge-edge axes dropped (parallel_sin = inf):
+distance_err 0.32 m, 44 false positives, 161 deg; A's half extents 0.1 % long: distance_err
+1.1e-3 m, 62 false positives. SAT's largest separation as the distance of separated pairs: up
+to 0.15 m (21 %) short, on 36 % of them (vertex-edge, edge-edge and vertex-vertex pairs).
 """
 from __future__ import annotations
 

@@ -134,3 +134,21 @@ def test_near_parallel_edges_lose_nothing():
     assert 0.2 < ex["overlap"].mean() < 0.9
     _close(out["distance"], ex["distance"], "near-parallel boxes")
     np.testing.assert_array_equal(out["overlap"], ex["overlap"])
+
+
+def test_bounds_read_the_engines_distance_tolerance(batch):
+    """settings["distance_tolerance"] widens the distance bound by itself, allows the pairs
+    within it of touching to be misclassified, and leaves the far pairs' normal bound finite
+    (the near pairs' normals are then unbounded: 180 deg)."""
+    _, ex = batch
+    tol = 1e-4
+    plain, wide = CASE.bounds(P, {}), CASE.bounds(P, {"distance_tolerance": tol})
+    assert wide["distance_err"][0] == plain["distance_err"][0] + tol
+    within = int(np.sum((np.abs(ex["distance"]) > P["margin"]) & (np.abs(ex["distance"]) <= tol)))
+    assert wide["false_negatives"][0] == wide["false_positives"][0] == within > 0
+    assert plain["false_negatives"][0] == 0
+    assert wide["normal_err_deg"][0] == 180.0
+    assert plain["normal_err_far_deg"][0] < wide["normal_err_far_deg"][0] < 10.0
+    ans = _answers(batch[0]["part"])
+    got = CASE.measure(P, {**ans, "normal": -ans["normal"]}, ex)
+    assert got["normal_err_far_deg"] > wide["normal_err_far_deg"][0]  # a flip still caught
