@@ -152,3 +152,13 @@ def test_bounds_read_the_engines_distance_tolerance(batch):
     ans = _answers(batch[0]["part"])
     got = CASE.measure(P, {**ans, "normal": -ans["normal"]}, ex)
     assert got["normal_err_far_deg"] > wide["normal_err_far_deg"][0]  # a flip still caught
+
+
+def test_oracle_flags_a_tie_between_planes():
+    """Aligned unit cubes offset (0.5, 0.5, 0): the depths along x and y are both 0.5, the
+    normal is either axis: normal_gap 0 (the case counts the pair ambiguous); offset (0.5,
+    0.3, 0): y is deeper by 0.2, the normal is x, the gap 0.2."""
+    ex = _cubes(np.array([[0.5, 0.5, 0.0], [0.5, 0.3, 0.0]]), np.eye(3))
+    _close(ex["distance"], [-0.5, -0.5], "depth 0.5 along x")
+    _close(ex["normal_gap"], [0.0, 0.2], "the second plane's extra depth")
+    _close(ex["normal"][1], [1.0, 0.0, 0.0], "x, from A to B")
