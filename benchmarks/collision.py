@@ -19,7 +19,11 @@ on a quiet machine it is the wall time), best of repeats after a warm-up (the br
 timing at N = 1e5). On the shared 2-core machine at a load of 4-6, two runs a minute apart
 gave wall times 2-4x these CPU times; the CPU times and exponents still move with the load
 (caches shared): read two runs before trusting a digit.
-`--quick`: the same sizes, one timing each. `main` returns the figures for the store.
+2. Box and polygon pairs (`pairs_item`): queries per second of every engine on the
+   oriented_boxes and convex_polygons batches of 10^3 and 10^5 pairs, each engine's answers
+   checked by the case before its rate (wall time: the engines' own calls are the cost).
+`--quick`: the same sizes, one timing each (pairs: 10^3 only). `main` returns the figures for
+the store.
 """
 from __future__ import annotations
 
@@ -145,7 +149,29 @@ def bvh_item(quick, repeats):
     return print_bvh(bvh_rows(quick, repeats))
 
 
-ITEMS = [bvh_item]
+def pairs_item(quick, repeats):
+    """2. Box-box and polygon-polygon batches of 10^3 and 10^5 pairs (the oriented_boxes and
+    convex_polygons cases' default and large variants) on every engine answering them, in-house
+    batch beside each engine's per-query calls (benchmarks/_query_rates.py: each answer checked
+    with the case's measures and bounds before its rate is printed). `--quick`: 10^3 only."""
+    from refsim_benchmarks._query_rates import print_rates, rate_rows
+    variants = ["default"] if quick else ["default", "large"]
+    figures = []
+    for case in ("oriented_boxes", "convex_polygons"):
+        rows = rate_rows(case, variants, PAIR_ENGINES, repeats)
+        print(f"\n{case}: queries per second (wall time, best of {repeats} after a checked "
+              "warm-up answer; setup apart)")
+        print_rates(rows)
+        figures += [_figure(f"{r['case']}_{r['engine']}"
+                            + (f"_{r['formulation']}" if r["formulation"] else ""),
+                            r["per_s"], "queries/s", r["variant"],
+                            f"{r['queries']} pairs, {r['engine']} {r['formulation'] or ''}"
+                            f" (distance_err {r['distance_err']:.3g} m)") for r in rows]
+    return figures
+
+
+PAIR_ENGINES = ("refsim", "mujoco", "pybullet", "pymunk")
+ITEMS = [bvh_item, pairs_item]
 
 
 def main(quick: bool = False) -> list[dict]:
