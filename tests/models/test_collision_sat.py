@@ -153,3 +153,14 @@ def test_box_swapped_sides_flip_the_normal():
     # distance: ULPS x 3 m / min |d| (min |d| = 5.7e-3 here: 8.4e3 ulps; a sign flip is 2e16)
     assert_ulp(back["normal"], -there["normal"],
                ULPS * SCALE / np.abs(there["distance"]).min(), "round-off / distance", 1.0)
+
+
+def test_touching_exactly_counts_as_overlap():
+    """Squares and cubes face to face at exactly 0: overlap (closed shapes: SAT's separation
+    <= 0), distance 0, the face's normal."""
+    out = polygon_pairs(SQUARE[None], [4], SQUARE[None] + [1.0, 0.25], [4])
+    assert out["overlap"][0] == 1.0 and out["distance"][0] == 0.0
+    assert_ulp(out["normal"], [[1.0, 0.0]], ULPS, "face normal", 1.0)
+    box = box_pairs(*_cube_pair(np.array([[1.0, 0.25, 0.5]]), np.eye(3)))
+    assert box["overlap"][0] == 1.0 and box["distance"][0] == 0.0
+    assert_ulp(box["normal"], [[1.0, 0.0, 0.0]], ULPS, "face normal", 1.0)

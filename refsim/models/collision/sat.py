@@ -148,7 +148,10 @@ def polygon_pairs(a, a_count, b, b_count) -> dict:
     distance, normal = sep, axis
     apart = np.nonzero(~overlap)[0]
     if len(apart):
-        distance[apart], normal[apart] = _distance(pa.take(apart), pb.take(apart))
+        d, nrm = _distance(pa.take(apart), pb.take(apart))
+        distance[apart] = d
+        # closest points that coincide (apart by SAT's round-off only): SAT's axis instead
+        normal[apart] = np.where((d > 0)[:, None], nrm, normal[apart])
     return {"overlap": overlap.astype(float), "distance": distance, "normal": normal}
 
 
@@ -194,5 +197,7 @@ def box_pairs(a_center, a_half, a_rot, b_center, b_half, b_rot,
     apart = ~overlap
     if apart.any():
         d, nrm = box_distance(*(x[apart] for x in args))
-        distance[apart], normal[apart] = d, nrm
+        distance[apart] = d
+        # closest points that coincide (apart by SAT's round-off only): SAT's axis instead
+        normal[apart] = np.where((d > 0)[:, None], nrm, normal[apart])
     return {"overlap": overlap.astype(float), "distance": distance, "normal": normal}
