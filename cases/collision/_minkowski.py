@@ -13,8 +13,8 @@ Minkowski difference D = B - A = hull{b_j - a_i} of every pair, by Qhull
   `normal_gap` is the depth difference to the nearest facet of another plane: where it is
   within a case's margin the normal is ambiguous at round-off.
 
-The hull is the only loop over pairs (one Qhull call each, ~70-90 us: 0.1 s per 10^3 pairs);
-the simplices of all pairs are then measured at once, in chunks.
+The hull is the only loop over pairs (one Qhull call each: 0.13 s for 10^3 polygon pairs, 0.25 s
+for 10^3 box pairs, measured); the simplices of all pairs are then measured at once, in chunks.
 """
 from __future__ import annotations
 
