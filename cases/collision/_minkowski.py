@@ -198,27 +198,41 @@ class ConvexPairCase(QueryCase):
                 "ambiguous": int(np.sum(~normal_ok))}
 
     def bounds(self, p, settings) -> dict:
+        """Per pair the round-off B_i plus the engine's declared terms (settings, absent: 0):
+        "distance_tolerance" (m, on every answer) and "depth_relative_tolerance" (of the depth,
+        on overlapping pairs): E_i = B_i + tol + rel x depth_i; "gradient_edge_normal_below"
+        (m): separated pairs closer than it get an edge's normal, unbounded (180 deg)."""
         tol = float((settings or {}).get("distance_tolerance", 0.0))
+        rel = float((settings or {}).get("depth_relative_tolerance", 0.0))
         ex = self.exact_cached(p)
         sure, normal_ok, far = self._classes(p, ex)
+        allowed = tol + rel * np.maximum(-ex["distance"], 0.0)
         reach = np.where(ex["overlap"] > 0.5, ex["feature"], np.minimum(np.abs(ex["distance"]),
                                                                           ex["feature"]))
-        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + tol) / reach))
-        far_bound = float(np.max(turn[far], initial=0.0)) if 2 * tol < FAR else 180.0
-        near = int(np.sum(sure & (np.abs(ex["distance"]) <= tol)))
-        extra = f"; plus the engine's declared distance_tolerance {tol:g} m" if tol else ""
+        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + allowed) / reach))
+        # an engine whose normal is an edge's, not the closest points' direction, this close to
+        # touching (pymunk's point query below 1e-5 m) declares it: those normals are unbounded
+        switch = float((settings or {}).get("gradient_edge_normal_below", 0.0))
+        turn[(ex["overlap"] < 0.5) & (ex["distance"] <= switch)] = 180.0
+        far_ok = 2 * float(np.max(allowed[far], initial=0.0)) < FAR
+        far_bound = float(np.max(turn[far], initial=0.0)) if far_ok else 180.0
+        near = int(np.sum(sure & (np.abs(ex["distance"]) <= allowed)))
+        extra = "".join([f"; plus the engine's declared distance_tolerance {tol:g} m" if tol
+                         else "", f"; plus its depth_relative_tolerance {rel:g} of each depth"
+                         if rel else ""])
         return {
-            "distance_err": (float(ex["bound"].max()) + tol,
+            "distance_err": (float(np.max(ex["bound"] + allowed)),
                              f"round-off K eps S (1 + lever), K = {K_ROUNDING}, S the pair's "
-                             f"largest coordinate, largest over the batch" + extra),
+                             f"largest coordinate" + extra + ", largest over the batch"),
             "normal_err_deg": (float(np.max(turn[normal_ok], initial=0.0)),
                                "the distance bound over the length that turns the normal (the "
                                "shortest feature; apart, also |d*|), largest over the pairs"),
             "normal_err_far_deg": (far_bound, "as normal_err_deg over the far pairs (an engine "
                                    "within its tolerance picks the deepest plane there while "
-                                   f"2 x tolerance < {FAR:g} m)"),
-            "false_negatives": (near, "pairs within the engine's distance tolerance of touching"
-                                if tol else "every compared pair is the margin from touching"),
+                                   f"2 x its allowed error < {FAR:g} m; else 180)"),
+            "false_negatives": (near, "pairs within the engine's allowed error of touching"
+                                if tol or rel else "every compared pair is the margin from "
+                                                   "touching"),
             "false_positives": (near, "as false negatives")}
 
     def error_floor(self, p) -> float:

@@ -22,16 +22,20 @@ facet of another plane within the margin of the deepest (the normal is round-off
 Bounds. Per pair B_i = K eps S (1 + lever), K = 16: every coordinate is rounded at its size S
 (the pair's largest |coordinate|, up to L + 2 m) and a normal built from an edge of length l
 (the shortest of both polygons) is turned by ~eps S / l, moving the projection of a point a
-lever D (the pair's extent) away by D/l times as much; distance_err <= max B_i (1.4e-11 m on
-the default batch) plus the engine's declared settings["distance_tolerance"] (m; absent: 0;
-an engine that keeps a collision margin or an iteration tolerance in its answers declares it
-there). normal_err_deg <= max over the compared pairs of (B_i + tolerance) / l' rad, l' = l, and |d*|
-where apart (a closest-point direction turns by the points' error over their distance);
-normal_err_far_deg the same over the far pairs (180 once 2 x tolerance >= 1e-3 m).
-False negatives and positives: 0, or with a declared tolerance the number of pairs within it
-of touching. Measured on refsim: distance_err 2.2e-16 m (max B_i / err = 6.5e4: the lever
-term is the worst case, not the typical one), normal_err_deg 5.4e-7 (a pair 1e-9 m apart;
-bound 0.056), normal_err_far_deg 1.9e-12 (bound 9.9e-8).
+lever D (the pair's extent) away by D/l times as much; distance_err <= max B_i (1.4e-11 m on the
+default batch) plus the engine's declared terms, settings keys (absent: 0): "distance_tolerance"
+(m, on every answer: a collision margin kept in the answers, an iteration tolerance) and
+"depth_relative_tolerance" (of each overlapping pair's depth: a collider that prefers face
+axes): E_i = B_i + tol + rel depth_i, distance_err <= max E_i. normal_err_deg <= max over the
+compared pairs of E_i / l' rad, l' = l, and |d*| where apart (a closest-point direction turns by
+the points' error over their distance); normal_err_far_deg the same over the far pairs (180 once
+2 (E_i - B_i) >= 1e-3 m on one of them). False negatives and positives: 0, or with declared
+terms the number of pairs within E_i - B_i of touching. An engine whose normal near touching
+is an edge's, not the closest points' direction, declares the gap below which it is so
+("gradient_edge_normal_below", m): those pairs' normal bound is 180 deg (the far ones keep
+theirs). Measured on refsim: distance_err 2.2e-16
+m (max B_i / err = 6.5e4: the lever term is the worst case, not the typical one), normal_err_deg
+5.4e-7 (a pair 1e-9 m apart; bound 0.056), normal_err_far_deg 1.9e-12 (bound 9.9e-8).
 The large variant (10^5 pairs) compares a seeded sample of `checked` = 5000 pairs with the
 oracle (Qhull's ~0.1 ms a pair: 10 s a row for all); the engine answers the whole batch.
 

@@ -9,13 +9,14 @@ each vertex to vertex, vertex to face and edge to edge (`_touch`). Exact answers
 of the 64 points {b_j - a_i} (cases/collision/_minkowski.py, Qhull), checked on closed forms
 (tests/cases/test_oriented_boxes.py).
 
-Measures, margin (1e-9 m) and bounds as convex_polygons states them (ConvexPairCase): B_i =
-K eps S (1 + lever), K = 16, S the pair's largest |coordinate|, lever the pair's bounding-box
-diagonal over the shortest box edge (2 h); plus settings["distance_tolerance"] (m) where an
-engine declares one. Max B_i on the default batch 1.5e-12 m. Measured on refsim: distance_err
-1.6e-15 m, normal_err_deg 2.8e-5 (a pair ~1e-9 m apart; bound 0.036), normal_err_far_deg
-9.8e-12 (bound 2.0e-8), no false negatives or positives. The
-large variant (10^5 pairs) compares a seeded sample of `checked` = 5000 with the oracle.
+Measures, margin (1e-9 m) and bounds as convex_polygons states them (ConvexPairCase): B_i = K
+eps S (1 + lever), K = 16, S the pair's largest |coordinate|, lever the pair's bounding-box
+diagonal over the shortest box edge (2 h); plus the engine's declared settings
+"distance_tolerance" (m) and "depth_relative_tolerance" (of each depth). Max B_i on the default
+batch 1.5e-12 m. Measured on refsim: distance_err 1.6e-15 m, normal_err_deg 2.8e-5 (a pair ~1e-9
+m apart; bound 0.036), normal_err_far_deg 9.8e-12 (bound 2.0e-8), no false negatives or
+positives. The large variant (10^5 pairs) compares a seeded sample of `checked` = 5000 with
+the oracle.
 
 Planted once (the default batch): inputs rounded to float32: distance_err 8.8e-7 m, 26 false
 negatives, 13 false positives, a normal 90 deg off (far pairs: 8.1e-3 deg); the normal's sign

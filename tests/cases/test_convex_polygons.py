@@ -96,3 +96,16 @@ def _only_a(separations):
         s = separations(pa, pb)
         return s if len(calls) % 2 else np.full_like(s, -np.inf)
     return patched
+
+
+def test_an_edge_normal_switch_near_touching_is_declared_not_hidden(batch):
+    """settings["gradient_edge_normal_below"] (pymunk's 1e-5 m) unbounds the normals of the
+    separated pairs closer than it (normal_err_deg 180) and no other: the far pairs' bound and
+    the distance bound stay the plain ones (a sign flip is still caught there)."""
+    _, ex = batch
+    plain = CASE.bounds(P, {})
+    switched = CASE.bounds(P, {"gradient_edge_normal_below": 1e-5})
+    assert np.any((ex["overlap"] < 0.5) & (ex["distance"] > P["margin"]) & (ex["distance"] <= 1e-5))
+    assert switched["normal_err_deg"][0] == 180.0
+    for key in ("normal_err_far_deg", "distance_err", "false_negatives"):
+        assert switched[key][0] == plain[key][0]

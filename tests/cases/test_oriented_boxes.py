@@ -162,3 +162,17 @@ def test_oracle_flags_a_tie_between_planes():
     _close(ex["distance"], [-0.5, -0.5], "depth 0.5 along x")
     _close(ex["normal_gap"], [0.0, 0.2], "the second plane's extra depth")
     _close(ex["normal"][1], [1.0, 0.0, 0.0], "x, from A to B")
+
+
+def test_bounds_read_the_depth_relative_tolerance(batch):
+    """settings["depth_relative_tolerance"] r allows r x depth more on overlapping pairs: the
+    distance bound grows by r x the deepest pair's depth (to round-off); alone it allows no
+    misclassification (an error r x depth never reaches a depth) and leaves the far pairs'
+    normals unbounded (5 % of a 1 m depth is past the 1e-3 m the far class keeps)."""
+    _, ex = batch
+    rel = 0.05
+    plain, wide = CASE.bounds(P, {}), CASE.bounds(P, {"depth_relative_tolerance": rel})
+    deepest = float(np.max(-ex["distance"]))
+    grown = wide["distance_err"][0] - plain["distance_err"][0]
+    assert abs(grown - rel * deepest) <= plain["distance_err"][0]  # round-off terms differ
+    assert wide["false_negatives"][0] == 0 and wide["normal_err_far_deg"][0] == 180.0
