@@ -273,21 +273,23 @@ def velocity_at(u, v, points, grid: MacGrid) -> np.ndarray:
 
 class PaddedVelocity:
     """(x / h, y / h) -> (u, v) there, bilinear, from the padded faces pu, pv built once (no-slip
-    ghosts, the lid): the divisions shared by the two components; broadcastable arrays."""
+    ghosts and the lid, or free-slip `wall` "even" ones): the divisions shared by the two
+    components; broadcastable arrays."""
 
-    def __init__(self, u, v, grid: MacGrid):
+    def __init__(self, u, v, grid: MacGrid, wall: str = "noslip"):
         self.grid = grid
-        self.pu, self.pv = padded(u, "u", grid), padded(v, "v", grid)
+        self.pu, self.pv = padded(u, "u", grid, wall), padded(v, "v", grid, wall)
 
     def __call__(self, sx, sy) -> tuple[np.ndarray, np.ndarray]:
         return (bilinear(self.pu, *coordinates(sx, sy, "u", self.grid), own=True),
                 bilinear(self.pv, *coordinates(sx, sy, "v", self.grid), own=True))
 
 
-def velocity_sampler(u, v, grid: MacGrid):
+def velocity_sampler(u, v, grid: MacGrid, wall: str = "noslip"):
     """points -> velocity_at(u, v, points) with the ghost layers built once (for the several
-    evaluations of one backtrace)."""
-    at = PaddedVelocity(u, v, grid)
+    evaluations of one backtrace); `wall` "noslip" (the tangential velocity odd about a wall,
+    the wall's value there) or "even" (mirrored: free slip, no shear at the wall)."""
+    at = PaddedVelocity(u, v, grid, wall)
     return lambda points: np.stack(at(points[..., 0] / grid.h, points[..., 1] / grid.h),
                                    axis=-1)
 
