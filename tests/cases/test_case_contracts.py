@@ -81,7 +81,12 @@ AT_SCALE = {("poisson_manufactured", "2d_1025"), ("poisson_manufactured", "3d_65
             # 480 steps at 32^2 x 4 projection solvers x 3 schemes: 10-21 s per run (about
             # 3 minutes of the suite); tests/cases/test_grid_fluids_cavity.py runs n = 32 against
             # both of its bounds, and the default variant (n = 16) runs the same code here
-            ("cavity", "n32")}
+            ("cavity", "n32"),
+            # 10^5 queries: the engine answers the whole batch, the oracle a sample (4 s a
+            # contract run) or all of it by brute force (bvh: ~10 s); the default variants
+            # run the same code here, and `refsim bench collision` checks these batches
+            ("convex_polygons", "large"), ("oriented_boxes", "large"), ("bvh_spheres", "n1e5"),
+            ("swept_spheres", "large")}
 
 
 # cases outside the slides' models, which the in-house engine refuses with this reason
