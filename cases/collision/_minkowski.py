@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from refsim.case import EPS
+from refsim.case import EPS, Param
 from refsim.query import QueryCase
 from refsim.scene import Scene
 
@@ -125,7 +125,7 @@ K_ROUNDING = 16  # round-off factor of the bounds (the cases' docstrings derive 
 
 
 class ConvexPairCase(QueryCase):
-    """A batch of convex pairs against the oracle. A subclass draws the batch (`_draw(p)` ->
+    """A batch of convex pairs against the oracle. A subclass draws the batch (`draw(p, rng)` ->
     {"part": the query part, "a_pts", "a_count", "b_pts", "b_count": vertices for the oracle})
     and sizes the pairs idx (`sizes(drawn, idx)` -> {"scale" the largest coordinate of each
     pair, "lever" its longest lever over its shortest feature length, "feature" that length})."""
@@ -139,6 +139,33 @@ class ConvexPairCase(QueryCase):
                 "false_positives": ("pairs", "apart by more than the margin, answered overlapping"),
                 "ambiguous": ("pairs", "|d*| <= margin (overlap undefined) or an overlapping "
                                        "pair's two planes' depths within it (normal undefined)")}
+
+    variants = {"default": {}, "large": {"n": 1e5}}
+    default_variants = quick_variants = ("default",)
+
+    @staticmethod
+    def pair_params(region: str) -> dict:
+        """The parameters both pair cases take; `region` names where A's centre lies."""
+        return {
+            "n": Param(1000, 20, 1e7, "pairs in the batch"),
+            "seed": Param(1, 0, 2 ** 31, "random seed"),
+            "extent": Param(10.0, 0.0, 1e6, f"half side L of the {region} holding A's centre "
+                                            "(m)"),
+            "checked": Param(5000, 20, 1e7, "pairs compared with the oracle (a seeded sample "
+                                            "of the batch beyond it)"),
+            "margin": Param(1e-9, 0.0, 1.0, "ambiguity margin (m): |d*| or an overlapping "
+                                            "pair's two nearest planes' depths within it are "
+                                            "not compared"),
+        }
+
+    def _draw(self, p) -> dict:
+        """The batch of `draw(p, rng)`, drawn once per parameter set (seeded)."""
+        cache = self.__dict__.setdefault("_drawn", {})
+        key = tuple(sorted(p.items()))
+        if key not in cache:
+            cache.clear()
+            cache[key] = self.draw(p, np.random.default_rng(int(p["seed"])))
+        return cache[key]
 
     def batch(self, p) -> int:
         return int(p["n"])

@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import Param
 from refsim.scene.queries import PolygonPairs
 
 from ._minkowski import ConvexPairCase
@@ -86,24 +85,9 @@ class ConvexPolygonsCase(ConvexPairCase):
                    "normal against the Minkowski-difference hull")
     tags = ("collision", "queries", "sat", "exact")
     dim = 2
-    params = {
-        "n": Param(1000, 20, 1e7, "pairs in the batch"),
-        "seed": Param(1, 0, 2 ** 31, "random seed"),
-        "extent": Param(10.0, 0.0, 1e6, "half side L of the square holding A's centre (m)"),
-        "checked": Param(5000, 20, 1e7, "pairs compared with the oracle (a seeded sample "
-                                        "of the batch beyond it)"),
-        "margin": Param(1e-9, 0.0, 1.0, "ambiguity margin (m): |d*| or an overlapping pair's "
-                                        "two nearest planes' depths within it are not compared"),
-    }
-    variants = {"default": {}, "large": {"n": 1e5}}
-    default_variants = quick_variants = ("default",)
+    params = ConvexPairCase.pair_params("square")
 
-    def _draw(self, p) -> dict:
-        cache = self.__dict__.setdefault("_drawn", {})
-        key = tuple(sorted(p.items()))
-        if key in cache:
-            return cache[key]
-        rng = np.random.default_rng(int(p["seed"]))
+    def draw(self, p, rng) -> dict:
         n = int(p["n"])
         a_count, b_count = rng.integers(3, K_MAX + 1, n), rng.integers(3, K_MAX + 1, n)
         a, size_a = _polygons(rng, n, a_count)
@@ -120,8 +104,6 @@ class ConvexPolygonsCase(ConvexPairCase):
         _touch(rng, a, a_count, b, b_count)
         out = {"part": PolygonPairs(a, a_count, b, b_count), "a_pts": a, "a_count": a_count,
                "b_pts": b, "b_count": b_count}
-        cache.clear()
-        cache[key] = out
         return out
 
     def sizes(self, d, idx) -> dict:

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.case import Param
 from refsim.scene.queries import BoxPairs
 
 from ._minkowski import ConvexPairCase
@@ -106,24 +105,9 @@ class OrientedBoxesCase(ConvexPairCase):
                    "Minkowski-difference hull")
     tags = ("collision", "queries", "sat", "exact")
     dim = 3
-    params = {
-        "n": Param(1000, 20, 1e7, "pairs in the batch"),
-        "seed": Param(1, 0, 2 ** 31, "random seed"),
-        "extent": Param(10.0, 0.0, 1e6, "half side L of the cube holding A's centre (m)"),
-        "checked": Param(5000, 20, 1e7, "pairs compared with the oracle (a seeded sample "
-                                        "of the batch beyond it)"),
-        "margin": Param(1e-9, 0.0, 1.0, "ambiguity margin (m): |d*| or an overlapping pair's "
-                                        "two nearest planes' depths within it are not compared"),
-    }
-    variants = {"default": {}, "large": {"n": 1e5}}
-    default_variants = quick_variants = ("default",)
+    params = ConvexPairCase.pair_params("cube")
 
-    def _draw(self, p) -> dict:
-        cache = self.__dict__.setdefault("_drawn", {})
-        key = tuple(sorted(p.items()))
-        if key in cache:
-            return cache[key]
-        rng = np.random.default_rng(int(p["seed"]))
+    def draw(self, p, rng) -> dict:
         n = int(p["n"])
         half_a = np.exp(rng.uniform(np.log(0.05), np.log(1.0), (n, 3)))
         half_b = np.exp(rng.uniform(np.log(0.05), np.log(1.0), (n, 3)))
@@ -138,8 +122,6 @@ class OrientedBoxesCase(ConvexPairCase):
         a_pts, b_pts = corners(centre_a, half_a, rot_a), corners(centre_b, half_b, rot_b)
         out = {"part": BoxPairs(centre_a, half_a, rot_a, centre_b, half_b, rot_b),
                "a_pts": a_pts, "a_count": eight, "b_pts": b_pts, "b_count": eight}
-        cache.clear()
-        cache[key] = out
         return out
 
     def sizes(self, d, idx) -> dict:

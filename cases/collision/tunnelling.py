@@ -310,7 +310,7 @@ class Tunnelling(Case):
         reason += (f"; plus round-off 4 N eps (|x0| + v T) / (v T) = "
                    f"{self.roundoff_relative(p):.3g}")
         if contact.soft:
-            v, e = self.speeds(p), p["restitution"]
+            e = p["restitution"]
             period = self.t_end(p)
             soft = float(np.max(contact.restitution_residual * (period - self.contact_time(p))
                                 / period + (1 + e) * (contact.duration_s + dt) / period))
