@@ -244,10 +244,11 @@ class Case:
         """Case-specific columns (e.g. momentum_drift, penetration_max) from a whole run."""
         return {}
 
-    def consistency_checks(self, p, row: dict, settings) -> list[str]:
+    def consistency_checks(self, p, row: dict, settings, stacked=None) -> list[str]:
         """Further conditions of "consistent with its method" beyond the tolerance column's
-        bound (e.g. a query case's other measures within theirs), as the reasons that fail:
-        each makes a consistent row inconsistent. None by default."""
+        bound (e.g. a query case's other measures within theirs, or each answer within its own
+        bound), as the reasons that fail: each makes a consistent row inconsistent. `stacked`:
+        the run's observations, as observables() takes them. None by default."""
         return []
 
     def error(self, p, observed: dict, reference: dict) -> np.ndarray:

@@ -95,9 +95,17 @@ class QueryCase(SteadyCase):
     def tolerance(self, p, integrator, order, dt, engine_variant="", settings=None):
         return self.bounds(p, settings or {})[self.primary]
 
-    def consistency_checks(self, p, row: dict, settings) -> list[str]:
-        """Every measure beyond the first outside its bound, as reasons."""
-        out = []
+    def answer_checks(self, p, answered: dict, exact: dict, settings) -> list[str]:
+        """Reasons where answers leave their OWN bounds (a batch maximum can hide a wrong
+        answer on a pair whose bound is tight behind another pair's loose one); [] by
+        default."""
+        return []
+
+    def consistency_checks(self, p, row: dict, settings, stacked=None) -> list[str]:
+        """Every measure beyond the first outside its bound, and `answer_checks` on the
+        answers (when the run's observations are given), as reasons."""
+        out = [] if stacked is None else self.answer_checks(
+            p, self.observables(p, stacked), self.exact_cached(p), settings or {})
         for column, (bound, why) in self.bounds(p, settings or {}).items():
             if column == self.primary:
                 continue

@@ -203,19 +203,64 @@ class ConvexPairCase(QueryCase):
         far = (np.abs(d) >= FAR) & (exact["normal_gap"] >= FAR)
         return sure, normal_ok, far
 
-    def measure(self, p, answered, exact) -> dict:
+    def _errors(self, p, answered, exact):
+        """(distance errors, normal angles in degrees, overlap flags) of the compared pairs."""
         idx = exact["index"]
         d = np.asarray(answered["distance"], float)[idx]
         over = np.asarray(answered["overlap"], float)[idx] > 0.5
         nrm = np.asarray(answered["normal"], float).reshape(int(p["n"]), -1)[idx]
-        sure, normal_ok, far = self._classes(p, exact)
         err = np.abs(d - exact["distance"])
         ref = exact["normal"]
         cos = np.einsum("nd,nd->n", nrm, ref)
         sin = np.abs(nrm[:, 0] * ref[:, 1] - nrm[:, 1] * ref[:, 0]) if ref.shape[1] == 2 else \
             np.linalg.norm(np.cross(nrm, ref), axis=1)
         angle = np.degrees(np.arctan2(sin, cos))  # not arccos: its resolution near 0 is 2e-8 rad
-        angle = np.where(np.isfinite(angle), angle, 180.0)
+        return err, np.where(np.isfinite(angle), angle, 180.0), over
+
+    def answer_checks(self, p, answered, exact, settings) -> list[str]:
+        """Each pair within its OWN bound: |d - d*| <= B_i + allowed_i and, where the normal
+        is defined (the nearest plane ahead of the next by more than the engine's allowance),
+        its angle <= turn_i (`_pair_bounds`). The batch maxima of `bounds` alone
+        let a pair with a tight bound err up to the loosest pair's bound (an engine's declared
+        depth tolerance on a deep pair made the normal bound 180 deg for the whole batch)."""
+        err, angle, _ = self._errors(p, answered, exact)
+        allowed, turn = self._pair_bounds(p, exact, settings)
+        sure, normal_ok, _ = self._classes(p, exact)
+        out = []
+        bad = np.flatnonzero(~(np.where(np.isfinite(err), err, np.inf)
+                               <= exact["bound"] + allowed))
+        if len(bad):
+            k = bad[np.argmax((err[bad] / (exact["bound"] + allowed)[bad]))]
+            out.append(f"{len(bad)} pairs' distances beyond their own bounds (worst {err[k]:.3g} "
+                       f"m against {exact['bound'][k] + allowed[k]:.3g} m)")
+        # a normal is defined at the engine's tolerance only where the nearest plane beats the
+        # next by more than that tolerance (else the other plane is as right)
+        bad = np.flatnonzero(normal_ok & (exact["normal_gap"] > allowed) & ~(angle <= turn))
+        if len(bad):
+            k = bad[np.argmax(angle[bad] - turn[bad])]
+            out.append(f"{len(bad)} pairs' normals beyond their own bounds (worst {angle[k]:.3g} "
+                       f"deg against {turn[k]:.3g} deg)")
+        return out
+
+    def _pair_bounds(self, p, ex, settings):
+        """Per compared pair: the engine's declared allowance on the distance (m) and the
+        normal's bound (deg), as `bounds` derives them."""
+        s = settings or {}
+        tol = float(s.get("distance_tolerance", 0.0))
+        rel = float(s.get("depth_relative_tolerance", 0.0))
+        allowed = tol + rel * np.maximum(-ex["distance"], 0.0)
+        reach = np.where(ex["overlap"] > 0.5, ex["feature"], np.minimum(np.abs(ex["distance"]),
+                                                                          ex["feature"]))
+        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + allowed) / reach))
+        # an engine whose normal is an edge's, not the closest points' direction, this close to
+        # touching (pymunk's point query below 1e-5 m) declares it: those normals are unbounded
+        switch = float(s.get("gradient_edge_normal_below", 0.0))
+        turn[(ex["overlap"] < 0.5) & (ex["distance"] <= switch)] = 180.0
+        return allowed, turn
+
+    def measure(self, p, answered, exact) -> dict:
+        err, angle, over = self._errors(p, answered, exact)
+        sure, normal_ok, far = self._classes(p, exact)
         truth = exact["overlap"] > 0.5
         return {"distance_err": float(np.max(np.where(np.isfinite(err), err, np.inf))),
                 "normal_err_deg": float(np.max(angle[normal_ok], initial=0.0)),
@@ -233,14 +278,7 @@ class ConvexPairCase(QueryCase):
         rel = float((settings or {}).get("depth_relative_tolerance", 0.0))
         ex = self.exact_cached(p)
         sure, normal_ok, far = self._classes(p, ex)
-        allowed = tol + rel * np.maximum(-ex["distance"], 0.0)
-        reach = np.where(ex["overlap"] > 0.5, ex["feature"], np.minimum(np.abs(ex["distance"]),
-                                                                          ex["feature"]))
-        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + allowed) / reach))
-        # an engine whose normal is an edge's, not the closest points' direction, this close to
-        # touching (pymunk's point query below 1e-5 m) declares it: those normals are unbounded
-        switch = float((settings or {}).get("gradient_edge_normal_below", 0.0))
-        turn[(ex["overlap"] < 0.5) & (ex["distance"] <= switch)] = 180.0
+        allowed, turn = self._pair_bounds(p, ex, settings)
         far_ok = 2 * float(np.max(allowed[far], initial=0.0)) < FAR
         far_bound = float(np.max(turn[far], initial=0.0)) if far_ok else 180.0
         near = int(np.sum(sure & (np.abs(ex["distance"]) <= allowed)))

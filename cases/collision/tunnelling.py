@@ -320,7 +320,7 @@ class Tunnelling(Case):
                        f"{soft:.3g}")
         return bound, reason
 
-    def consistency_checks(self, p, row, settings):
+    def consistency_checks(self, p, row, settings, stacked=None):
         detection, side, projection = self.detection_of(settings)
         reasons = []
         if detection != "continuous" and side not in PLATE_SIDES:

@@ -186,7 +186,7 @@ def _verdicts(case, p, job, row, stacked) -> dict:
                      case.error_floor(p)))
     # its own word, or its energy's behaviour, whatever the bound: not the method it names;
     # and any further condition the case states (a query case's other measures)
-    checks = case.consistency_checks(p, {**row, **out}, settings) \
+    checks = case.consistency_checks(p, {**row, **out}, settings, stacked) \
         if out["consistency"] != UNRESOLVED else []
     for why in (declared_reason(row["declared_order"], method["order"]),
                 _energy_behaviour(case, p, method, settings, row, stacked), *checks):

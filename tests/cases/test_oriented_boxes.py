@@ -176,3 +176,22 @@ def test_bounds_read_the_depth_relative_tolerance(batch):
     grown = wide["distance_err"][0] - plain["distance_err"][0]
     assert abs(grown - rel * deepest) <= plain["distance_err"][0]  # round-off terms differ
     assert wide["false_negatives"][0] == 0 and wide["normal_err_far_deg"][0] == 180.0
+
+
+def test_one_flipped_normal_is_caught_per_pair_under_a_loose_declared_tolerance(batch):
+    """An engine declaring pybullet's box-box tolerances (1.46e-3 m, 5 % of each depth) makes
+    the batch-wide normal bound 180 deg (a deep pair's allowance over a short feature), so the
+    batch maxima alone would pass any normal; each pair's own bound still catches ONE normal
+    flipped on a pair the tolerance leaves well defined."""
+    settings = {"distance_tolerance": 1.46e-3, "depth_relative_tolerance": 0.05}
+    ans = _answers(batch[0]["part"])
+    ex = CASE.exact_cached(P)
+    assert CASE.bounds(P, settings)["normal_err_deg"][0] == 180.0
+    assert CASE.answer_checks(P, ans, ex, settings) == []
+    allowed, turn = CASE._pair_bounds(P, ex, settings)
+    sure, normal_ok, _ = CASE._classes(P, ex)
+    k = int(np.flatnonzero(normal_ok & (ex["normal_gap"] > allowed) & (turn < 10))[0])
+    flipped = ans["normal"].copy()
+    flipped[ex["index"][k]] *= -1
+    reasons = CASE.answer_checks(P, {**ans, "normal": flipped}, ex, settings)
+    assert len(reasons) == 1 and reasons[0].startswith("1 pairs' normals"), reasons
