@@ -275,13 +275,12 @@ class Engine:
         if group is None:
             return self.refusal(scene)
         parts, features = group.parts, group.features
-        if parts is not None:
-            missing = sorted(scene.part_kinds() - set(parts))
-            if missing:
-                return f"{self.name} does not simulate {', '.join(missing)}"
-        missing = sorted(scene.features() - set(features)) if features is not None else []
-        if missing:
-            return f"{self.name} does not simulate {', '.join(missing)}"
+        missing = sorted(scene.part_kinds() - set(parts)) if parts is not None else []
+        missing = missing or (sorted(scene.features() - set(features))
+                              if features is not None else [])
+        if missing:  # the engine's own sentence for what its group lacks, where it has one
+            said = next((self.refusals[k] for k in missing if k in self.refusals), None)
+            return said or f"{self.name} does not simulate {', '.join(missing)}"
         if scene.dim not in self.dims:
             return f"{self.name} is {'/'.join(map(str, self.dims))}D only"
         offered = self.offered_integrators(scene)
