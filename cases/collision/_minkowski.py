@@ -244,14 +244,20 @@ class ConvexPairCase(QueryCase):
 
     def _pair_bounds(self, p, ex, settings):
         """Per compared pair: the engine's declared allowance on the distance (m) and the
-        normal's bound (deg), as `bounds` derives them."""
+        normal's bound (deg): the features' possible displacement (the allowance, or the
+        engine's declared "feature_shift" where larger) over the length that turns the
+        normal, as `bounds` uses them."""
         s = settings or {}
         tol = float(s.get("distance_tolerance", 0.0))
         rel = float(s.get("depth_relative_tolerance", 0.0))
         allowed = tol + rel * np.maximum(-ex["distance"], 0.0)
         reach = np.where(ex["overlap"] > 0.5, ex["feature"], np.minimum(np.abs(ex["distance"]),
                                                                           ex["feature"]))
-        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + allowed) / reach))
+        # "feature_shift" (m): how far an engine's own geometry moves the features the normal
+        # joins (pybullet's margin shrinks a box corner by m sqrt 3 per box); else the
+        # distance allowance is how far they may move
+        shift = np.maximum(allowed, float(s.get("feature_shift", 0.0)))
+        turn = np.degrees(np.minimum(np.pi, (ex["bound"] + shift) / reach))
         # an engine whose normal is an edge's, not the closest points' direction, this close to
         # touching (pymunk's point query below 1e-5 m) declares it: those normals are unbounded
         switch = float(s.get("gradient_edge_normal_below", 0.0))

@@ -131,6 +131,10 @@ class PybulletBoxSim(OwnsClient, QuerySim):
             "integrator": {"name": "query", "order": 0},
             "collision_margin": m,
             "distance_tolerance": 2.0 * m * (math.sqrt(3.0) - 1.0),
+            # GJK's closest points are the shrunk boxes' (half extents h - m) features: a
+            # corner moves by up to m sqrt 3, so the line between two features (the normal of
+            # a separated pair) turns as if each end moved that far
+            "feature_shift": 2.0 * m * math.sqrt(3.0),
             "closest_points_threshold": self.threshold,
             "bodies": ("one GEOM_BOX shape and one multibody (mass 1, never stepped, no "
                        "gravity) per box; filter mask 0, each pair enabled by "
