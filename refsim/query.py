@@ -33,7 +33,7 @@ import json
 import numpy as np
 
 from refsim.case import SteadyCase
-from refsim.engine import Sim
+from refsim.engine import ModelGroup, Sim
 
 
 class QueryCase(SteadyCase):
@@ -148,3 +148,15 @@ class QuerySim(Sim):
         if self._answers is None:
             return {f"query.{name}": np.zeros(0) for name in self.names}
         return {f"query.{name}": value for name, value in self._answers.items()}
+
+
+def query_group(name: str, part_classes, build, **extra) -> ModelGroup:
+    """The ModelGroup of an engine's query group (adapters/<engine>/groups/collision_*.py): it
+    claims a scene holding one of `part_classes` (refsim.scene.queries), simulates those part
+    kinds and the feature "queries", offers the one integrator "query" and builds with
+    `build`; `extra`: its formulations and supports, as ModelGroup takes them."""
+    classes = tuple(part_classes)
+    return ModelGroup(name=name, build=build,
+                      claims=lambda scene: any(scene.part(c) is not None for c in classes),
+                      parts=frozenset(c.kind for c in classes),
+                      features=frozenset({"queries"}), integrators=("query",), **extra)

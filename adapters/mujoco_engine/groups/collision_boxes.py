@@ -54,8 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.engine import ModelGroup
-from refsim.query import QuerySim
+from refsim.query import QuerySim, query_group
 from refsim.scene.queries import BoxPairs
 
 CHUNK = 512  # pairs per model chunk (1024 geoms: compiles in ~0.02 s)
@@ -187,9 +186,6 @@ class MujocoBoxPairsSim(QuerySim):
         }
 
 
-def claims(scene) -> bool:
-    return scene.part(BoxPairs) is not None
-
 
 def _build(engine, scene, dt, integrator, formulation):
     if formulation not in FORMULATIONS:
@@ -198,7 +194,5 @@ def _build(engine, scene, dt, integrator, formulation):
     return MujocoBoxPairsSim(scene.part(BoxPairs), dt, formulation)
 
 
-MODEL_GROUP = ModelGroup(
-    name="collision_boxes", claims=claims, parts=frozenset({"box_pairs"}),
-    features=frozenset({"queries"}), integrators=("query",),
-    formulations=lambda engine, scene: tuple(FORMULATIONS), build=_build)
+MODEL_GROUP = query_group(
+    "collision_boxes", (BoxPairs,), _build, formulations=lambda engine, scene: tuple(FORMULATIONS))

@@ -42,9 +42,8 @@ import math
 
 import numpy as np
 
-from refsim.engine import ModelGroup
 from refsim.models.rigid_body import matrix_to_quaternion
-from refsim.query import QuerySim
+from refsim.query import QuerySim, query_group
 from refsim.scene.queries import BoxPairs
 
 from ..runtime import OwnsClient, c_stdout_silenced, import_pybullet
@@ -159,9 +158,6 @@ class PybulletBoxSim(OwnsClient, QuerySim):
                               "2 m (sqrt 3 - 1)")}
 
 
-def claims(scene) -> bool:
-    return scene.part(BoxPairs) is not None
-
 
 def _formulations(engine, scene):
     return FORMULATIONS
@@ -171,7 +167,4 @@ def _build(engine, scene, dt, integrator, formulation):
     return PybulletBoxSim(import_pybullet(), scene.part(BoxPairs), dt, formulation)
 
 
-MODEL_GROUP = ModelGroup(
-    name="collision_boxes", claims=claims, parts=frozenset({"box_pairs"}),
-    features=frozenset({"queries"}), integrators=("query",), formulations=_formulations,
-    build=_build)
+MODEL_GROUP = query_group("collision_boxes", (BoxPairs,), _build, formulations=_formulations)

@@ -36,8 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.engine import ModelGroup
-from refsim.query import QuerySim
+from refsim.query import QuerySim, query_group
 from refsim.scene.queries import PolygonPairs
 
 MAGIC_EPSILON = 1e-5  # Chipmunk's gap below which point_query's gradient is the edge normal
@@ -121,9 +120,6 @@ class PymunkPolygonSim(QuerySim):
         }
 
 
-def claims(scene) -> bool:
-    return scene.part(PolygonPairs) is not None
-
 
 def supports(engine, scene, integrator):
     if not __debug__:
@@ -137,6 +133,4 @@ def _build(engine, scene, dt, integrator, formulation):
     return PymunkPolygonSim(pymunk, scene.part(PolygonPairs), dt)
 
 
-MODEL_GROUP = ModelGroup(
-    name="collision_polygons", claims=claims, parts=frozenset({"polygon_pairs"}),
-    features=frozenset({"queries"}), integrators=("query",), supports=supports, build=_build)
+MODEL_GROUP = query_group("collision_polygons", (PolygonPairs,), _build, supports=supports)

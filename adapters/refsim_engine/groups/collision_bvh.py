@@ -6,8 +6,7 @@ splits on the Morton order, the LBVH tree) and "median" (object median on each n
 axis). One integrator, "query" (refsim.query)."""
 from __future__ import annotations
 
-from refsim.engine import ModelGroup
-from refsim.query import QuerySim
+from refsim.query import QuerySim, query_group
 from refsim.scene.queries import BvhQueries
 
 LEAF_SIZE = 8  # primitives per leaf at most
@@ -42,9 +41,6 @@ class BvhSim(QuerySim):
                 "precision": "float64"}
 
 
-def claims(scene) -> bool:
-    return scene.part(BvhQueries) is not None
-
 
 def formulations(engine, scene):
     from refsim.models.collision.bvh import SPLITS
@@ -55,7 +51,4 @@ def _build(engine, scene, dt, integrator, formulation):
     return BvhSim(scene.part(BvhQueries), dt, formulation or "morton")
 
 
-MODEL_GROUP = ModelGroup(
-    name="collision_bvh", claims=claims, parts=frozenset({"bvh_queries"}),
-    features=frozenset({"queries"}), integrators=("query",), formulations=formulations,
-    build=_build)
+MODEL_GROUP = query_group("collision_bvh", (BvhQueries,), _build, formulations=formulations)

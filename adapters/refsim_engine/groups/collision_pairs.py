@@ -3,8 +3,7 @@ batch (2D) or a `BoxPairs` batch (3D), one vectorised call per batch (refsim.mod
 sat; the exact distance of separated pairs from their features). One integrator, "query"."""
 from __future__ import annotations
 
-from refsim.engine import ModelGroup
-from refsim.query import QuerySim
+from refsim.query import QuerySim, query_group
 from refsim.scene.queries import BoxPairs, PolygonPairs
 
 
@@ -39,14 +38,8 @@ def _part(scene):
     return scene.part(PolygonPairs) or scene.part(BoxPairs)
 
 
-def claims(scene) -> bool:
-    return _part(scene) is not None
-
-
 def _build(engine, scene, dt, integrator, formulation):
     return PairSim(_part(scene), dt)
 
 
-MODEL_GROUP = ModelGroup(
-    name="collision_pairs", claims=claims, parts=frozenset({"polygon_pairs", "box_pairs"}),
-    features=frozenset({"queries"}), integrators=("query",), build=_build)
+MODEL_GROUP = query_group("collision_pairs", (PolygonPairs, BoxPairs), _build)

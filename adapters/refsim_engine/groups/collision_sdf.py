@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from refsim.engine import ModelGroup
-from refsim.query import QuerySim
+from refsim.query import QuerySim, query_group
 from refsim.scene.queries import SdfProbes
 
 
@@ -34,14 +33,9 @@ class SdfSim(QuerySim):
                 "precision": str(np.dtype(self.values.dtype))}
 
 
-def claims(scene) -> bool:
-    return scene.part(SdfProbes) is not None
-
 
 def _build(engine, scene, dt, integrator, formulation):
     return SdfSim(scene.part(SdfProbes), dt)
 
 
-MODEL_GROUP = ModelGroup(
-    name="collision_sdf", claims=claims, parts=frozenset({"sdf_probes"}),
-    features=frozenset({"queries"}), integrators=("query",), build=_build)
+MODEL_GROUP = query_group("collision_sdf", (SdfProbes,), _build)

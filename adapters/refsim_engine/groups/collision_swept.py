@@ -3,8 +3,7 @@ each pair of a `SweptSpheres` batch (refsim.models.collision.swept), one vectori
 batch. One integrator, "query" (refsim.query)."""
 from __future__ import annotations
 
-from refsim.engine import ModelGroup
-from refsim.query import QuerySim
+from refsim.query import QuerySim, query_group
 from refsim.scene.queries import SweptSpheres
 
 
@@ -26,14 +25,9 @@ class SweptSim(QuerySim):
                              "form t = c / (sqrt(b^2 - a c) - b)", "precision": "float64"}
 
 
-def claims(scene) -> bool:
-    return scene.part(SweptSpheres) is not None
-
 
 def _build(engine, scene, dt, integrator, formulation):
     return SweptSim(scene.part(SweptSpheres), dt)
 
 
-MODEL_GROUP = ModelGroup(
-    name="collision_swept", claims=claims, parts=frozenset({"sphere_sweeps"}),
-    features=frozenset({"queries"}), integrators=("query",), build=_build)
+MODEL_GROUP = query_group("collision_swept", (SweptSpheres,), _build)
